@@ -1,0 +1,1 @@
+"""Solvers and gridded sweeps that generate the capillary-force tables."""

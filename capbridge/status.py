@@ -1,0 +1,30 @@
+"""Status of every computed or looked-up point (stored as CF flag values in tables)."""
+from __future__ import annotations
+
+import enum
+
+
+class Status(enum.IntEnum):
+    """Why a number is (or is not) there.  Never a silent NaN."""
+
+    CONVERGED = 0        #: solution found to the stated tolerance
+    RUPTURED = 1         #: beyond the rupture distance: no bridge, force zero
+    NOT_CONVERGED = 2    #: the solver failed; the point carries no result
+    NOT_COMPUTED = 3     #: not yet computed (resumable sweeps)
+    COALESCED = 4        #: bridges have merged; the doublet answer does not apply
+    OUT_OF_RANGE = 5     #: outside the table; no extrapolation unless asked
+    EXTRAPOLATED = 6     #: outside the table, answered by an explicit fallback
+
+
+def cf_flag_attributes():
+    """``flag_values``/``flag_meanings`` attributes for a status variable."""
+    return {
+        "flag_values": [int(s) for s in Status],
+        "flag_meanings": " ".join(s.name.lower() for s in Status),
+        "long_name": "status of the point",
+    }
+
+
+def status_name(code):
+    """Lower-case name of a status code, as written to CSV and JSON."""
+    return Status(int(code)).name.lower()

@@ -1,0 +1,1 @@
+"""Table loading, interpolation, fits and analytic reference formulas behind the public lookup API."""
