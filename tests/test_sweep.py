@@ -53,7 +53,7 @@ def solve_fails_on_negative(x, y):
     _log_call(x)
     if np.any(y < 0):
         raise RuntimeError(f"no bridge for y={y.min()}")
-    return {"F": x * y, "status": np.zeros(len(x), np.int8)}
+    return {"F": x * y, "n": np.ones(len(x), np.int32), "status": np.zeros(len(x), np.int8)}
 
 
 def solve_crashes_in_worker(x, y):
@@ -288,7 +288,7 @@ def test_sigkill_keeps_finished_chunks(tmp_path):
     env.pop("CAPBRIDGE_TEST_INTERRUPT_AT", None)
     env.pop("CAPBRIDGE_TEST_CALLLOG", None)
     proc = subprocess.Popen([sys.executable, "-c", script], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.time() + 20
         while len(_chunk_files(ck)) < 5 and time.time() < deadline:
@@ -332,6 +332,8 @@ def test_failing_chunk_is_not_converged(tmp_path, calllog, caplog, n_jobs):
     assert (res["status"][~bad] == Status.CONVERGED).all()
     assert np.isnan(res["F"][bad]).all()
     np.testing.assert_array_equal(res["F"][~bad], (inp["x"] * inp["y"])[~bad])
+    assert res["n"].dtype == np.float64  # integer output promoted to hold NaN
+    assert np.isnan(res["n"][bad]).all() and (res["n"][~bad] == 1).all()
     assert [f.index for f in res.failures] == [2, 5]
     f = res.failures[0]
     assert (f.start, f.stop) == (100, 150)

@@ -100,7 +100,7 @@ def _parse_launcher(path):
     m = re.search(r"features\s*,\s*version\s*,\s*debugbuild\s*=\s*'([^']*)'\.split\(' '\)\s*,\s*'([^']*)'",
                   text)
     if m:
-        features = tuple(f for f in m.group(1).split(" ") if f)
+        features = tuple(dict.fromkeys(f for f in m.group(1).split(" ") if f))
         version = m.group(2)
     if py_dir is None:
         m = re.search(r"libPATH\s*=\s*'([^']+)'", text)

@@ -32,7 +32,6 @@ import dataclasses
 
 import numpy as np
 
-from capbridge.dimensionless import cap_area, cap_volume
 from capbridge.status import Status
 from capbridge.validation import check_range
 
@@ -52,6 +51,21 @@ class SolverSettings:
 
     def as_dict(self):
         return dataclasses.asdict(self)
+
+
+def _cap_volume(radius, beta):
+    """Volume of the spherical cap of half-angle ``beta``, free of cancellation.
+
+    pi R^3 (1 - cos b)^2 (2 + cos b) / 3 with 1 - cos b = 2 sin^2(b/2): accurate to
+    round-off even for tiny caps on large spheres (the textbook form loses ~1/b^4).
+    """
+    v = 2.0 * np.sin(0.5 * beta) ** 2
+    return np.pi * radius**3 * v * v * (2.0 + np.cos(beta)) / 3.0
+
+
+def _cap_area(radius, beta):
+    """Area of the spherical cap of half-angle ``beta``: 4 pi R^2 sin^2(b/2)."""
+    return 4.0 * np.pi * radius**2 * np.sin(0.5 * beta) ** 2
 
 
 _GL_CACHE: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -124,10 +138,11 @@ def bridge_profile(h, beta1, beta2, theta1, theta2, ratio, nodes=DEFAULT_NODES):
     length = np.sum(wj * dxds, axis=-1)
     vol_rev = np.pi * np.sum(wj * y**2 * dxds, axis=-1)
     area = 2.0 * np.pi * np.sum(wj * y, axis=-1)
-    gap = np.cos(beta1) + length + R * np.cos(beta2) - 1.0 - R
-    volume = vol_rev - cap_volume(1.0, beta1) - cap_volume(R, beta2)
-    wet1 = cap_area(1.0, beta1)
-    wet2 = cap_area(R, beta2)
+    # cos b - 1 = -2 sin^2(b/2): no cancellation for small caps on large spheres
+    gap = length - 2.0 * np.sin(0.5 * beta1) ** 2 - 2.0 * R * np.sin(0.5 * beta2) ** 2
+    volume = vol_rev - _cap_volume(1.0, beta1) - _cap_volume(R, beta2)
+    wet1 = _cap_area(1.0, beta1)
+    wet2 = _cap_area(R, beta2)
     energy = area - np.cos(theta1) * wet1 - np.cos(theta2) * wet2
     bad = ~feasible
     out = dict(gap=gap, volume=volume, force=F, pressure=2.0 * h, neck_parameter=n,
@@ -149,6 +164,7 @@ def _residual_norm(r):
 
 
 _MAX_STEP = [2.0, 0.2, 0.2]  # largest Newton step in h, beta1, beta2
+_NOISE_FLOOR = 1e-8  # residuals below this may be round-off (see _newton)
 
 
 def _newton(fun, x, *, tol, max_iter, max_step):
@@ -184,6 +200,20 @@ def _newton(fun, x, *, tol, max_iter, max_step):
         jac[singular] = np.eye(m)
         dx = -np.linalg.solve(jac, ra.T[..., None])[..., 0].T
         dx[:, singular] = np.nan
+        # at the round-off floor of the residuals (relative volume of a tiny bridge on a
+        # big sphere: ~1e-12) the Newton correction itself is the measure: accept the
+        # point once it would move x by less than 1e-13 relative
+        floor = ~singular & (norm[todo] < _NOISE_FLOOR) & np.all(
+            np.abs(dx) <= 1e-13 * (1.0 + np.abs(xa)), axis=0)
+        if floor.any():
+            conv[ia[floor]] = True
+            iters[ia[floor]] += 1
+            keep = ~floor
+            ia, xa, ra, jac, dx = ia[keep], xa[:, keep], ra[:, keep], jac[keep], dx[:, keep]
+            todo = np.zeros(npts, bool)
+            todo[ia] = True
+            if not ia.size:
+                break
         scale = np.min(np.where(np.abs(dx) > max_step, max_step / np.abs(dx), 1.0), axis=0)
         dx *= scale
         lam = np.ones(xa.shape[1])
@@ -207,7 +237,7 @@ def _newton(fun, x, *, tol, max_iter, max_step):
         nnew[stalled] = np.nan
         x[:, todo], r[:, todo], norm[todo] = xnew, rnew, nnew
         iters[todo] += 1
-        conv = norm < tol
+        conv |= norm < tol
     return x, conv, iters
 
 
@@ -225,7 +255,7 @@ def _toroidal_volume(beta, gap, theta, nodes=24):
     t, wt = _gauss_legendre(nodes)
     x = 0.5 * w[..., None] * (t + 1.0)
     y = rho2[..., None] + rho1[..., None] - np.sqrt(np.maximum(rho1[..., None] ** 2 - x**2, 0))
-    vol = 2.0 * np.pi * 0.5 * w * np.sum(wt * y**2, axis=-1) - 2.0 * cap_volume(1.0, beta)
+    vol = 2.0 * np.pi * 0.5 * w * np.sum(wt * y**2, axis=-1) - 2.0 * _cap_volume(1.0, beta)
     h = 0.5 * (1.0 / rho2 - 1.0 / rho1)
     ok = (rho2 > 0) & (c > 0)
     return np.where(ok, vol, np.nan), np.where(ok, h, np.nan)

@@ -1,0 +1,44 @@
+# capbridge: every target installs what it needs first (idempotent), then runs.
+# Environment: Debian's /usr/bin/python3 (3.11) + a venv that sees Debian's packages
+# (YADE's modules), with numpy < 2 from pip (YADE was built against numpy 1.24).
+SHELL := /bin/bash
+VENV  := .venv
+PY    := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc
+
+.PHONY: setup system-packages demo test test-fast bench data clean
+
+system-packages:
+	@missing=""; for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  SUDO=""; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+
+$(STAMP): pyproject.toml | system-packages
+	test -x $(PY) || /usr/bin/python3 -m venv --system-site-packages $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e ".[test,dask]"
+	touch $(STAMP)
+
+setup: system-packages $(STAMP)
+
+# Main job on the shipped data: F*(d*) from data/doublet_table.nc beside the exact solver.
+demo: setup
+	$(VENV)/bin/capbridge info
+	$(VENV)/bin/capbridge demo --output-dir out
+
+test: setup
+	$(PY) -m pytest -n 2 -q
+
+bench: setup
+	$(PY) benchmarks/bench_doublet.py
+
+# Regenerates the shipped table (resumable: rerun after a kill to continue).
+data: setup
+	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
+
+clean:
+	rm -rf out .sweep-checkpoints

@@ -1,0 +1,182 @@
+"""``capbridge`` command line: solve, lookup, generate, info, demo."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from capbridge.status import status_name
+from capbridge.validation import CapbridgeInputError
+
+DEFAULT_TABLE = Path(__file__).resolve().parent.parent / "data" / "doublet_table.nc"
+
+
+def _json_value(v):
+    v = np.asarray(v)
+    if v.ndim == 0:
+        x = v.item()
+        return None if isinstance(x, float) and not np.isfinite(x) else x
+    return [_json_value(x) for x in v]
+
+
+def cmd_solve_doublet(args):
+    from capbridge.generator.young_laplace import solve_doublet
+
+    r = solve_doublet(args.d, args.V, args.theta, args.ratio, args.theta2)
+    out = {"d": args.d, "V": args.V, "theta": args.theta, "theta2": args.theta2 or args.theta,
+           "ratio": args.ratio, "F": r["force"], "P": r["pressure"], "beta1": r["beta1"],
+           "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
+           "energy": r["energy"], "status": status_name(r["status"]),
+           "units": "dimensionless by R1 and gamma: F*=F/(2 pi gamma R1), P*=dp R1/gamma; angles in degrees"}
+    print(json.dumps({k: _json_value(v) if not isinstance(v, str) else v for k, v in out.items()},
+                     indent=1))
+    return 0 if out["status"] in ("converged", "ruptured") else 3
+
+
+def _load_surrogate(path, out_of_range="raise"):
+    from capbridge.surrogate.doublet import DoubletSurrogate
+
+    path = Path(path)
+    if not path.exists():
+        raise CapbridgeInputError(f"table {path} not found; make it with `capbridge generate doublet`")
+    return DoubletSurrogate(out_of_range=out_of_range).fit(path)
+
+
+def cmd_lookup_doublet(args):
+    import pandas as pd
+
+    df = pd.read_csv(args.input)
+    missing = [c for c in ("d", "V", "theta") if c not in df.columns]
+    if missing:
+        raise CapbridgeInputError(
+            f"{args.input}: missing column(s) {missing}; required: d, V, theta (optional ratio), "
+            f"found: {list(df.columns)}")
+    ratio = df["ratio"].to_numpy(float) if "ratio" in df.columns else 1.0
+    sur = _load_surrogate(args.table, "clip" if args.clip else "raise")
+    r = sur.predict(df["d"].to_numpy(float), df["V"].to_numpy(float),
+                    df["theta"].to_numpy(float), ratio)
+    for key, col in (("force", "F"), ("pressure", "P"), ("beta1", "beta1"), ("beta2", "beta2"),
+                     ("rupture_gap", "d_rupt")):
+        df[col] = r[key]
+    df["status"] = [status_name(s) for s in r["status"]]
+    df.to_csv(args.output, index=False)
+    print(f"wrote {len(df)} rows to {args.output}", file=sys.stderr)
+    return 0
+
+
+def cmd_generate_doublet(args):
+    from capbridge.generator.doublet_table import (DoubletGrid, build_doublet_table,
+                                                   save_doublet_table)
+    from capbridge.surrogate.doublet import DoubletSurrogate, holdout_errors
+
+    grid = DoubletGrid.shipped(args.quick, ratios=args.ratios)
+    command = "capbridge " + " ".join(sys.argv[1:]) if args.command is None else args.command
+    ds = build_doublet_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
+                             scheduler=args.scheduler, progress=not args.no_progress,
+                             command=command)
+    sur = DoubletSurrogate().fit(ds)
+    for ratio in grid.ratio:
+        for band in (0.0, HOLDOUT_BAND):
+            h = holdout_errors(sur, n=args.holdout, seed=1, ratio=ratio, exclude_band=band)
+            tag = f"ratio{ratio:g}_band{band:g}"
+            ds.attrs[f"holdout_median_rel_error_force_{tag}"] = h["median_rel_error"]
+            ds.attrs[f"holdout_max_rel_error_force_{tag}"] = h["max_rel_error"]
+            ds.attrs[f"holdout_n_{tag}"] = h["n"]
+    ds.attrs["holdout_description"] = (
+        "relative error of the surrogate force against the exact solver at random points "
+        "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
+        "out d* > 0.96 d*_rupt, where dF/dd* diverges at the fold")
+    save_doublet_table(ds, args.output, command=command)
+    print(f"wrote {args.output}", file=sys.stderr)
+    return cmd_info_table(argparse.Namespace(table=args.output))
+
+
+HOLDOUT_BAND = 0.2
+
+
+def cmd_info_table(args):
+    from capbridge.generator.netcdf_io import read_table
+
+    ds = read_table(args.table)
+    print(f"table: {args.table}")
+    print(f"  made by: {ds.attrs.get('capbridge_command')}")
+    for name in ("ratio", "theta", "volume", "s"):
+        c = ds[name].values
+        print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  ({ds[name].attrs['long_name']})")
+    st = ds["status"].values
+    print(f"  points: {st.size}, converged: {int((st == 0).sum())}")
+    print("  error model (surrogate vs exact, held-out points):")
+    for k, v in sorted(ds.attrs.items()):
+        if k.startswith("holdout_") and k != "holdout_description":
+            print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
+    if "holdout_description" in ds.attrs:
+        print(f"    ({ds.attrs['holdout_description']})")
+    return 0
+
+
+def cmd_demo(args):
+    from capbridge.surrogate.demo import run_demo
+
+    return run_demo(args.table, args.output_dir)
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="capbridge", description=__doc__)
+    sub = p.add_subparsers(dest="command_name", required=True)
+
+    solve = sub.add_parser("solve", help="exact solvers").add_subparsers(dest="what", required=True)
+    sd = solve.add_parser("doublet", help="exact Young-Laplace bridge between two spheres (JSON out)")
+    sd.add_argument("--d", type=float, required=True, help="gap d* = d/R1")
+    sd.add_argument("--V", type=float, required=True, help="volume V* = V/R1^3")
+    sd.add_argument("--theta", type=float, required=True, help="contact angle [deg]")
+    sd.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
+    sd.add_argument("--ratio", type=float, default=1.0, help="R2/R1 >= 1")
+    sd.set_defaults(func=cmd_solve_doublet)
+
+    look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)
+    ld = look.add_parser("doublet", help="interpolate forces for the rows of a CSV")
+    ld.add_argument("--input", required=True, help="CSV with columns d, V, theta [, ratio]")
+    ld.add_argument("--output", required=True)
+    ld.add_argument("--table", default=str(DEFAULT_TABLE))
+    ld.add_argument("--clip", action="store_true",
+                    help="answer outside the table at its edge (status extrapolated) instead of failing")
+    ld.set_defaults(func=cmd_lookup_doublet)
+
+    gen = sub.add_parser("generate", help="regenerate tables").add_subparsers(dest="what", required=True)
+    gd = gen.add_parser("doublet", help="sweep the exact solver into a netCDF table")
+    gd.add_argument("--output", default=str(DEFAULT_TABLE))
+    gd.add_argument("--quick", action="store_true", help="small grid (tests)")
+    gd.add_argument("--ratios", type=float, nargs="+", default=None)
+    gd.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    gd.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    gd.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
+    gd.add_argument("--holdout", type=int, default=600, help="held-out exact points for the error model")
+    gd.add_argument("--no-progress", action="store_true")
+    gd.add_argument("--command", default=None, help=argparse.SUPPRESS)
+    gd.set_defaults(func=cmd_generate_doublet)
+
+    info = sub.add_parser("info", help="describe a table and its error model")
+    info.add_argument("--table", default=str(DEFAULT_TABLE))
+    info.set_defaults(func=cmd_info_table)
+
+    demo = sub.add_parser("demo", help="F*(d*) from the shipped table beside the exact solution")
+    demo.add_argument("--table", default=str(DEFAULT_TABLE))
+    demo.add_argument("--output-dir", default="out")
+    demo.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (CapbridgeInputError, FileNotFoundError) as exc:
+        print(f"capbridge: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
