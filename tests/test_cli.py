@@ -1,0 +1,98 @@
+"""The `capbridge` command: JSON and CSV outputs, and clear refusals of bad input."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from capbridge.cli import main
+from capbridge.generator.young_laplace import solve_doublet
+
+
+def run(args, capsys):
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_solve_doublet_json(capsys):
+    code, out, _ = run(["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30"], capsys)
+    assert code == 0
+    r = json.loads(out)
+    for key in ("F", "P", "beta1", "beta2", "status"):
+        assert key in r
+    assert r["status"] == "converged"
+    assert r["F"] == pytest.approx(float(solve_doublet(0.1, 0.05, 30)["force"]), rel=1e-12)
+
+
+def test_solve_doublet_beyond_rupture(capsys):
+    code, out, _ = run(["solve", "doublet", "--d", "0.5", "--V", "0.001", "--theta", "0"], capsys)
+    r = json.loads(out)
+    assert code == 0 and r["status"] == "ruptured" and r["F"] == 0.0
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--d", "0.1", "--V", "-0.05", "--theta", "30"], "volume"),
+    (["--d", "0.1", "--V", "nan", "--theta", "30"], "volume"),
+    (["--d", "0.1", "--V", "0.05", "--theta", "120"], "theta"),
+    (["--d", "-0.1", "--V", "0.05", "--theta", "30"], "gap"),
+    (["--d", "0.1", "--V", "0.05", "--theta", "30", "--ratio", "0.5"], "ratio"),
+])
+def test_solve_doublet_refuses_bad_input(args, word, capsys):
+    code, out, err = run(["solve", "doublet"] + args, capsys)
+    assert code != 0 and out == ""
+    assert word in err and "allowed range" in err
+
+
+def test_lookup_doublet_csv(tmp_path, capsys):
+    src = tmp_path / "points.csv"
+    pd.DataFrame({"d": [0.0, 0.05, 0.1, 2.0], "V": [0.01, 0.02, 0.05, 0.05],
+                  "theta": [0, 20, 40, 10], "extra": ["a", "b", "c", "d"]}).to_csv(src, index=False)
+    dst = tmp_path / "out.csv"
+    code, _, _ = run(["lookup", "doublet", "--input", str(src), "--output", str(dst)], capsys)
+    assert code == 0
+    df = pd.read_csv(dst)
+    assert list(df.columns[:4]) == ["d", "V", "theta", "extra"]
+    for col in ("F", "P", "beta1", "beta2", "status"):
+        assert col in df.columns
+    assert list(df["status"]) == ["converged"] * 3 + ["ruptured"]
+    exact = solve_doublet(df["d"][:3].to_numpy(), df["V"][:3].to_numpy(), df["theta"][:3].to_numpy())
+    np.testing.assert_allclose(df["F"][:3], exact["force"], rtol=5e-3)
+    assert df["F"][3] == 0.0
+
+
+@pytest.mark.parametrize("frame, word", [
+    ({"d": [0.1], "theta": [10]}, "missing column"),
+    ({"d": [0.1], "V": [-1.0], "theta": [10]}, "volume"),
+    ({"d": [0.1], "V": [0.01], "theta": [99]}, "theta"),
+    ({"d": [-0.01], "V": [0.01], "theta": [10]}, "gap"),
+    ({"d": [0.1], "V": [50.0], "theta": [10]}, "outside the table"),
+])
+def test_lookup_refuses_bad_rows(tmp_path, frame, word, capsys):
+    src = tmp_path / "bad.csv"
+    pd.DataFrame(frame).to_csv(src, index=False)
+    code, _, err = run(["lookup", "doublet", "--input", str(src), "--output", str(tmp_path / "o.csv")],
+                       capsys)
+    assert code != 0 and word in err
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_generate_quick_table_then_lookup(tmp_path, capsys):
+    table = tmp_path / "quick.nc"
+    code, out, _ = run(["generate", "doublet", "--quick", "--output", str(table), "--jobs", "1",
+                        "--holdout", "40", "--no-progress"], capsys)
+    assert code == 0 and "converged: 216" in out
+    from capbridge.surrogate.doublet import DoubletSurrogate
+
+    r = DoubletSurrogate().fit(table).predict(0.05, 0.01, 20.0)
+    assert abs(r["force"] / solve_doublet(0.05, 0.01, 20.0)["force"] - 1) < 0.02
+
+
+def test_entry_point_runs():
+    exe = [sys.executable, "-m", "capbridge.cli", "solve", "doublet", "--d", "0.05", "--V", "0.01",
+           "--theta", "0"]
+    done = subprocess.run(exe, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["status"] == "converged"
