@@ -55,14 +55,32 @@ with ``R = r/R`` in (0, 1] (the engine queries ``min/max`` radius), ``succion = 
 ``surface = (liquid-gas area + dry areas of both spheres)/R^2`` (the engine's
 ``SInterface``; it sets 4 pi (r^2 + R^2) when there is no bridge), ``arcLength``
 (unused by the engine), ``delta1``/``delta2`` half filling angles (degrees, see
-below), ``ending`` 1 for points that mark the end of the bridge domain.  The engine
+:data:`FORMAT_NOTES`), ``ending`` 1 for points that mark the end of the bridge domain.  The engine
 triangulates the points (R, succion, distance) and (R, volume, distance); a query
 outside the convex hull, or in a tetrahedron whose four vertices all have ``ending=1``,
 gets no bridge.  capbridge therefore adds, after the last gap with a bridge on every
 (ratio, suction) line, one marker point (force 0, ``ending=1``) at the next gap of the
 table, and pads the hull (see :func:`write_delaunay_file`).
 
-Uncertain points are listed in :data:`FORMAT_NOTES`.
+Using the files in YADE (both engines read relative to the working directory)::
+
+    os.chdir(export_dir)
+    O.engines = [ForceResetter(),
+                 InsertionSortCollider([Bo1_Sphere_Aabb(aabbEnlargeFactor=1.5)]),
+                 InteractionLoop([Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=1.5)],
+                                 [Ip2_FrictMat_FrictMat_CapillaryPhys()],
+                                 [Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)]),
+                 Law2_ScGeom_CapillaryPhys_Capillarity(capillaryPressure=uc,  # Pa
+                                                       surfaceTension=gamma,
+                                                       suffCapFiles=theta_suffix(30)),
+                 NewtonIntegrator()]
+
+(or ``Ip2_FrictMat_FrictMat_CapillaryPhysDelaunay()`` and ``CapillarityEngine(
+inputFilename="capillaryfile_theta30.txt", capillaryPressure=uc, liquidTension=gamma)``).
+Bridges form at contact; ``createDistantMeniscii=True`` (one step) also wets the
+pairs already within the detection range.  ``tests/yade_scenes/`` holds runnable scenes.
+
+Uncertain points and YADE quirks are listed in :data:`FORMAT_NOTES`.
 """
 from __future__ import annotations
 
@@ -257,7 +275,7 @@ def synthetic_suction_table(ratios=YADE_RATIOS, suctions=None, gaps=None, theta=
     ratios = np.asarray(ratios, float)
     suctions = np.asarray(suctions if suctions is not None
                           else np.concatenate([[0.0], np.geomspace(0.05, 200.0, 24)]), float)
-    gaps = np.asarray(gaps if gaps is not None else np.linspace(0.0, 0.6, 31), float)
+    gaps = np.asarray(gaps if gaps is not None else np.linspace(0.0, 0.8, 41), float)
     rr, ss, gg = np.meshgrid(ratios, suctions, gaps, indexing="ij")
     c = math.cos(math.radians(theta))
     g_rupt = 0.12 * (1.0 + 0.5 * np.log(rr)) * (1.0 + 2.0 / (1.0 + 0.2 * ss)) * (0.6 + 0.4 * c)

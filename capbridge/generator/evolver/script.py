@@ -118,8 +118,14 @@ def report(tag, contact_constraints, outside_constraints):
     return "\n".join(lines) + "\n"
 
 
+def band_refine(contact):
+    """Refine the facets touching a contact line (one extra level there)."""
+    cond = " or ".join(f"on_constraint {cn}" for cn in sorted(contact))
+    return f"refine facet ff where max(ff.vertex, {cond}) > 0; u;"
+
+
 def converge_level(level, contact, outside, ngrad=20, maxhess=8, refine=True, groom=True,
-                   newton=True, dumpfile=None, ngrad_first=40):
+                   newton=True, dumpfile=None, ngrad_first=40, band=0):
     """Commands for one refinement level: refine, groom, relax, report, dump.
 
     Level 0 relaxes the starting mesh (no refinement; more gradient steps, since the
@@ -134,6 +140,8 @@ def converge_level(level, contact, outside, ngrad=20, maxhess=8, refine=True, gr
         c.append("r;")
         if groom:
             c.append("cb_groom();")
+        for _ in range(band):
+            c.append(band_refine(contact))
     if newton:
         c.append(f"cb_relax({ngrad}, {maxhess});")
     else:
