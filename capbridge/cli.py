@@ -117,6 +117,18 @@ def cmd_info_table(args):
     return 0
 
 
+def cmd_export_yade(args):
+    from capbridge.dem_plugin.yade_export import export_from_solver
+
+    out = Path(args.directory)
+    out.mkdir(parents=True, exist_ok=True)
+    for theta in args.theta:
+        _, paths = export_from_solver(out, theta, n_gaps=args.n_gaps)
+        for p in (paths if isinstance(paths, (list, tuple)) else [paths]):
+            print(p)
+    return 0
+
+
 def cmd_demo(args):
     from capbridge.surrogate.demo import run_demo
 
@@ -157,6 +169,13 @@ def build_parser():
     gd.add_argument("--no-progress", action="store_true")
     gd.add_argument("--command", default=None, help=argparse.SUPPRESS)
     gd.set_defaults(func=cmd_generate_doublet)
+
+    ex = sub.add_parser("export-yade", help="write YADE's native capillary files (M(r=...) sets, "
+                        "CapillarityEngine input) from the exact suction-controlled solver")
+    ex.add_argument("--directory", required=True)
+    ex.add_argument("--theta", type=float, nargs="+", default=[0.0], help="contact angles [deg]")
+    ex.add_argument("--n-gaps", type=int, default=61)
+    ex.set_defaults(func=cmd_export_yade)
 
     info = sub.add_parser("info", help="describe a table and its error model")
     info.add_argument("--table", default=str(DEFAULT_TABLE))

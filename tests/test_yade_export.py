@@ -111,33 +111,55 @@ def test_file_layout(tmp_path, table):
 def test_round_trip_values_and_normalisation(tmp_path, table):
     ye.write_capillary_files(table, tmp_path, "_x")
     files = ye.read_capillary_files(tmp_path, "_x")
+    n_edge_rows = 0
     for (rho, blocks), r_expected in zip(files, ye.YADE_RATIOS):
         assert rho == r_expected
         i = table.ratio_index(rho)
+        edge = table.edge_points(i)
         for D, rows in blocks:
             k = int(np.argmin(np.abs(table.gap - D * rho)))
             np.testing.assert_allclose(table.gap[k], D * rho, rtol=1e-12, atol=1e-15)
             back = ye.from_yade_units(rho, P=rows[:, 1], V=rows[:, 2], F=rows[:, 3])
-            j = np.searchsorted(table.suction, back["suction"] - 1e-12)
-            np.testing.assert_allclose(table.suction[j], back["suction"], rtol=1e-12, atol=1e-15)
-            assert np.all(table.status[i, j, k] == int(Status.CONVERGED))
-            np.testing.assert_allclose(back["volume"], table.volume[i, j, k], rtol=1e-13)
-            np.testing.assert_allclose(back["force"], table.force[i, j, k], rtol=1e-13)
-            np.testing.assert_allclose(rows[:, 4], table.beta1[i, j, k], rtol=1e-13)
-            np.testing.assert_allclose(rows[:, 5], table.beta2[i, j, k], rtol=1e-13)
+            j = np.clip(np.searchsorted(table.suction, back["suction"] - 1e-12), 0,
+                        table.suction.size - 1)
+            on_grid = np.isclose(table.suction[j], back["suction"], rtol=1e-12, atol=1e-15)
+            # grid rows: the table's converged bridges
+            g = on_grid
+            assert np.all(table.status[i, j[g], k] == int(Status.CONVERGED))
+            np.testing.assert_allclose(back["volume"][g], table.volume[i, j[g], k], rtol=1e-13)
+            np.testing.assert_allclose(back["force"][g], table.force[i, j[g], k], rtol=1e-13)
+            np.testing.assert_allclose(rows[g, 4], table.beta1[i, j[g], k], rtol=1e-13)
+            np.testing.assert_allclose(rows[g, 5], table.beta2[i, j[g], k], rtol=1e-13)
+            # at most one other row, the last: the bridge rupturing at this very gap
+            assert (~on_grid).sum() <= 1 and (on_grid[:-1]).all()
+            if not on_grid[-1]:
+                n_edge_rows += 1
+                e = np.flatnonzero(np.isclose(edge["gap"], table.gap[k], rtol=1e-12)
+                                   & np.isclose(edge["suction"], back["suction"][-1], rtol=1e-12))
+                assert e.size == 1
+                assert math.isclose(back["force"][-1], edge["force"][e[0]], rel_tol=1e-13)
+                assert math.isclose(back["volume"][-1], edge["volume"][e[0]], rel_tol=1e-13)
             assert np.all(rows[:, 6:] == 0.0)                 # nn11, nn33 not computed
+    assert n_edge_rows > 0
 
 
-def test_blocks_stop_at_rupture(table):
-    i = table.ratio_index(2.0)
-    blocks, rep = ye.capillary_file_blocks(table, i)
-    conv = table.converged[i]
-    n_with_two = np.flatnonzero(conv.sum(axis=0) >= 2)
-    assert len(blocks) == n_with_two[-1] + 1                 # contiguous from gap 0
-    for k, (_, rows) in enumerate(blocks):
-        assert len(rows) == conv[:, k].sum()                  # every bridge written
-    assert rep["interior_points_missing"] == 0
-    assert rep["converged_points_not_written"] == conv.sum() - sum(len(r) for _, r in blocks)
+def test_blocks_stop_at_rupture():
+    for with_edge in (False, True):
+        table = ye.synthetic_suction_table(edge=with_edge)
+        i = table.ratio_index(2.0)
+        blocks, rep = ye.capillary_file_blocks(table, i)
+        conv = table.converged[i]
+        edge = table.edge_points(i)
+        extra = np.array([np.isclose(edge["gap"], g, rtol=1e-12).any() for g in table.gap])
+        n_rows = conv.sum(axis=0) + extra
+        short = np.flatnonzero(n_rows < 2)
+        assert len(blocks) == short[0]                        # contiguous from gap 0
+        for k, (_, rows) in enumerate(blocks):
+            assert len(rows) == n_rows[k]                     # every bridge written
+            assert np.all(np.diff(rows[:, 1]) > 0)
+        assert rep["rupture_rows"] == (extra[:len(blocks)].sum() if with_edge else 0)
+        assert rep["interior_points_missing"] == 0
+        assert rep["converged_points_not_written"] == 0
 
 
 def test_emulated_interpolation_hits_table_nodes(tmp_path, table):
@@ -208,8 +230,16 @@ def test_delaunay_records(tmp_path, table):
     paths = ye.write_delaunay_file(table, tmp_path / "capillaryfile.txt")
     d = ye.read_delaunay_file(paths[0])
     assert list(d) == list(ye.DELAUNAY_COLUMNS)
-    real = (d["ending"] == 0) & (d["distance"] >= 0) & (d["R"] <= 1.0)
-    assert real.sum() == table.converged.sum()
+    real = (d["ending"] == 0) & (d["distance"] >= 0) & (d["R"] <= 1.0) & (d["R"] >= 0.1)
+    # grid bridges, plus the rupture point of every line that has one past its last bridge
+    n_line_ends = 0
+    for i in range(table.ratio.size):
+        e = table.edge_points(i)
+        for j, s_j in enumerate(table.suction):
+            last_gap = table.gap[np.flatnonzero(table.converged[i, j])[-1]]
+            n_line_ends += int(np.any(np.isclose(e["suction"], s_j, rtol=1e-12, atol=1e-15)
+                                      & (e["gap"] > last_gap)))
+    assert real.sum() == table.converged.sum() + n_line_ends
     # one bridge, converted by hand: ratio 2, suction index 3, gap index 5
     rho, j, k = 2.0, 3, 5
     i = table.ratio_index(rho)
@@ -230,17 +260,26 @@ def test_delaunay_end_markers_and_pads(table):
     cols = {c: rec[:, n] for n, c in enumerate(ye.DELAUNAY_COLUMNS)}
     marker = cols["ending"] == 1
     assert np.all(cols["force"][marker] == 0)
-    # one marker per (ratio, suction) line that ruptures inside the gap grid (x copies at R=1.01)
-    lines_rupturing = int((~table.converged[:, :, -1] & table.converged[:, :, 0]).sum())
-    n_r1 = int((~table.converged[0, :, -1] & table.converged[0, :, 0]).sum())
-    assert marker.sum() == lines_rupturing + n_r1
-    # a marker sits one gap after its line's last bridge
+    # one marker per (ratio, suction) line that ruptures inside the gap grid, plus the
+    # copies of the extreme ratios' markers (R = 1.01 and R = 0.099)
+    rupturing = ~table.converged[:, :, -1] & table.converged[:, :, 0]
+    assert marker.sum() == rupturing.sum() + rupturing[0].sum() + rupturing[-1].sum()
+    # a line ends at its rupture point, then a marker a tenth of a gap step further
     i, j = table.ratio_index(1.0), 10
     last = np.flatnonzero(table.converged[i, j])[-1]
-    m = marker & np.isclose(cols["R"], 1.0) & np.isclose(cols["succion"], table.suction[j])
-    assert np.allclose(cols["distance"][m], table.gap[last + 1])
+    line = np.isclose(cols["R"], 1.0) & np.isclose(cols["succion"], table.suction[j])
+    g_rupt = ye.synthetic_bridge(1.0, table.suction[j], 0.0)["g_rupt"]
+    assert np.isclose(cols["distance"][line & ~marker].max(), g_rupt)
+    step = table.gap[last + 1] - table.gap[last]
+    assert np.allclose(cols["distance"][line & marker], g_rupt + 0.02 * step)
+    # without rupture points: the marker sits at the next gap of the grid
+    plain = ye.synthetic_suction_table(edge=False)
+    rec0 = ye.delaunay_records(plain)
+    m0 = ((rec0[:, 9] == 1) & np.isclose(rec0[:, 8], 1.0)
+          & np.isclose(rec0[:, 0], table.suction[j]))
+    assert np.allclose(rec0[m0, 2], table.gap[last + 1])
     assert np.all(cols["distance"] >= -0.05)
-    assert np.isclose(cols["R"].max(), 1.01)
+    assert np.isclose(cols["R"].max(), 1.01) and np.isclose(cols["R"].min(), 0.1 * 0.99)
     assert np.all(np.isfinite(rec))
 
 
@@ -250,6 +289,7 @@ def test_delaunay_single_ratio_needs_padding():
         ye.delaunay_records(t, ratio_pad=0.0)
     rec = ye.delaunay_records(t, ratio_pad=0.01)
     assert set(np.round(rec[:, 8], 12)) == {0.99, 1.0, 1.01}
+    assert ye.delaunay_records(ye.synthetic_suction_table(ratios=(2.0,)))[:, 8].min() == 0.5 * 0.99
 
 
 # --------------------------------------------------------------------------------------
@@ -265,6 +305,9 @@ def test_export_from_solver_glue(tmp_path, monkeypatch):
 
     def fake_solve_doublet_suction(gap, pressure, theta, ratio=1.0):
         calls.append(float(ratio))
+        return fake_bridge(gap, pressure, theta, ratio)
+
+    def fake_bridge(gap, pressure, theta, ratio):
         syn = ye.synthetic_suction_table(ratios=(ratio,), suctions=[0.0], gaps=[0.0], theta=theta)
         g, s = np.broadcast_arrays(np.asarray(gap, float), -np.asarray(pressure, float))
         f = syn.force[0, 0, 0] * (1 - g) * (1 + 0.01 * s)
@@ -273,12 +316,27 @@ def test_export_from_solver_glue(tmp_path, monkeypatch):
                 "area": 0.1 + 0 * g,
                 "status": np.where(g < 0.3 / (1 + 0.1 * s), 0, 1)}
 
+    def fake_suction_rupture_distance(pressure, theta, ratio=1.0):
+        s = -np.asarray(pressure, float)
+        g = 0.3 / (1 + 0.1 * s)                     # the fake's rupture gap
+        out = fake_bridge(g * (1 - 1e-12), pressure, theta, ratio)
+        out["gap"] = g
+        return out
+
     monkeypatch.setattr(young_laplace, "solve_doublet_suction", fake_solve_doublet_suction,
                         raising=False)
+    monkeypatch.setattr(young_laplace, "suction_rupture_distance",
+                        fake_suction_rupture_distance, raising=False)
     tab, paths = ye.export_from_solver(tmp_path, 20.0, suctions=[0, 1, 2, 5],
                                        gaps=np.linspace(0, 0.5, 11))
     assert calls == list(ye.YADE_RATIOS)
     assert tab.theta == 20.0 and tab.shape == (10, 4, 11)
+    # rupture points: at the grid suctions, and at the grid gaps 0.25 and 0.2 (s = 2, 5)
+    e = tab.edge_points(0)
+    np.testing.assert_allclose(e["gap"][:4], 0.3 / (1 + 0.1 * np.array([0, 1, 2, 5])))
+    at_grid_gaps = e["gap"][4:]
+    np.testing.assert_allclose(at_grid_gaps, [0.2, 0.25])
+    np.testing.assert_allclose(e["suction"][4:], (0.3 / at_grid_gaps - 1) / 0.1, rtol=1e-8)
     names = {p.name for p in paths}
     assert "M(r=1)_theta20" in names and "capillaryfile_theta20.txt" in names
     files = ye.read_capillary_files(tmp_path, "_theta20")
@@ -357,6 +415,81 @@ def test_law2_between_tabulated_ratios_and_suctions(law2_dir, table):
 
 @needs_yade
 @pytest.mark.yade
+@pytest.mark.parametrize("with_edge", [True, False])
+def test_law2_pull_apart_to_rupture(tmp_path, with_edge):
+    """Two spheres pulled apart at a suction between two tabulated ones, past rupture.
+
+    With the rupture points in the table (``edge``) Law2 follows the table to within
+    0.5 % up to the last grid gap before rupture, then fades linearly to zero at the
+    next grid gap (YADE's blocks are the only distances it knows: rupture is resolved
+    to one gap step) and gives nothing from there on.  Without them YADE drops the
+    bridge from the first grid gap where the next tabulated suction has ruptured, well
+    before its own rupture: that is what the rupture rows are for.
+    """
+    tab = ye.synthetic_suction_table(edge=with_edge)
+    ratio, j = 2.0, 14
+    s = math.sqrt(tab.suction[j] * tab.suction[j + 1])
+    g_r = float(ye.synthetic_bridge(ratio, s, 0.0)["g_rupt"])
+    g_next = tab.gap[tab.gap > g_r][0]                     # first grid gap past rupture
+    g_last = tab.gap[tab.gap <= g_r][-1]                   # last grid gap before it
+    gaps = np.concatenate([np.linspace(0.0, 0.999 * g_r, 16),
+                           [g_last, 0.5 * (g_r + g_next), g_next, 1.3 * g_r]])
+    ye.write_capillary_files(tab, tmp_path, "_t")
+    res = _run_law2(tmp_path, "_t", ratio, s, gaps)
+    forces = np.array([row["force"] for row in res["rows"]])
+    for row in res["rows"]:
+        assert row["force"] == pytest.approx(row["expected_force"], rel=1e-9, abs=1e-15)
+    true = ye.synthetic_bridge(ratio, s, gaps)["force"] * 2 * np.pi * GAMMA * R_SMALL
+    # reference: the table's own linear interpolation in suction between lines j, j+1
+    i = tab.ratio_index(ratio)
+    w = (s - tab.suction[j]) / (tab.suction[j + 1] - tab.suction[j])
+    alive = gaps <= g_r
+    if with_edge:
+        exact = gaps <= min(g_last, tab.gap[tab.converged[i, j + 1]][-1])
+        lin = ((1 - w) * np.interp(gaps, tab.gap, tab.force[i, j])
+               + w * np.interp(gaps, tab.gap, tab.force[i, j + 1])) * 2 * np.pi * GAMMA * R_SMALL
+        np.testing.assert_allclose(forces[exact], lin[exact], rtol=REL_TOL)
+        np.testing.assert_allclose(forces[exact], true[exact], rtol=REL_TOL)
+        assert np.all(forces[alive & (gaps <= g_last)] > 0)
+        fading = (gaps > g_last) & (gaps < g_next)
+        f_last = forces[np.flatnonzero(gaps == g_last)[0]]
+        np.testing.assert_allclose(forces[fading], f_last * (g_next - gaps[fading])
+                                   / (g_next - g_last), rtol=1e-6)
+        assert np.all(forces[gaps >= g_next] < 1e-12 * forces[0])   # 0 up to round-off
+    else:
+        g_cut = tab.gap[~tab.converged[i, j + 1]][0]       # next line gone from this block on
+        assert g_cut < g_r
+        early = gaps < tab.gap[tab.gap < g_cut][-1]
+        np.testing.assert_allclose(forces[early], true[early], rtol=REL_TOL)
+        lost = alive & (gaps >= g_cut)
+        assert lost.any() and np.all(forces[lost] < 1e-12 * forces[0])
+        assert np.all(forces[~alive] < 1e-12 * forces[0])
+
+
+@needs_yade
+@pytest.mark.yade
+@pytest.mark.parametrize("with_edge", [True, False])
+def test_capillarity_engine_pull_apart_to_rupture(tmp_path, with_edge):
+    """CapillarityEngine at a tabulated suction, up to and past rupture: with the
+    rupture point the line ends exactly there (within 0.5 % up to rupture); without it,
+    the force fades over the last grid cell.  No force past rupture either way."""
+    tab = ye.synthetic_suction_table(edge=with_edge)
+    ratio, j = 2.0, 14
+    g_r = float(ye.synthetic_bridge(ratio, tab.suction[j], 0.0)["g_rupt"])
+    gaps = np.concatenate([np.linspace(0.0, 0.999 * g_r, 16), [1.05 * g_r, 1.3 * g_r]])
+    ye.write_delaunay_file(tab, tmp_path / "capillaryfile_theta0.txt")
+    res = _run_delaunay(tmp_path, ratio, tab.suction[j], gaps)
+    forces = np.array([row["fCap"] for row in res["rows"]])
+    true = ye.synthetic_bridge(ratio, tab.suction[j], gaps)["force"] * 2 * np.pi * GAMMA * R_SMALL
+    alive = gaps <= g_r
+    exact = alive if with_edge else gaps <= tab.gap[tab.gap <= g_r][-1]
+    np.testing.assert_allclose(forces[exact], true[exact], rtol=REL_TOL)
+    assert np.all(forces[alive & ~exact] <= true[alive & ~exact] * (1 + REL_TOL))
+    assert np.all(forces[~alive] == 0.0)
+
+
+@needs_yade
+@pytest.mark.yade
 def test_law2_launcher_and_mindlin(law2_dir, table):
     """Same files through ``yade -n -x`` (Debian's python3) and with Hertz-Mindlin physics."""
     i, j = table.ratio_index(1.5), 7
@@ -376,7 +509,12 @@ def delaunay_dir(tmp_path_factory, table):
 
 
 def _run_delaunay(directory, ratio, s_star, gaps_star, volumes_star=None):
-    args = ["--dir", str(directory), "--file", "capillaryfile_theta0.txt", "--r1", R_SMALL,
+    return _run_delaunay_file(directory, "capillaryfile_theta0.txt", ratio, s_star, gaps_star,
+                              volumes_star)
+
+
+def _run_delaunay_file(directory, name, ratio, s_star, gaps_star, volumes_star=None):
+    args = ["--dir", str(directory), "--file", name, "--r1", R_SMALL,
             "--r2", ratio * R_SMALL, "--suction", _si_suction(s_star), "--gamma", GAMMA,
             _gaps_arg(np.asarray(gaps_star) * R_SMALL)]
     if volumes_star is not None:
@@ -392,8 +530,10 @@ def test_capillarity_engine_suction_control(delaunay_dir, table, ratio, j):
     between them, the contact value for an overlap, nothing past rupture."""
     i = table.ratio_index(ratio)
     last = np.flatnonzero(table.converged[i, j])[-1]
-    gaps = [-0.002, 0.0, table.gap[2], 0.5 * (table.gap[3] + table.gap[4]), table.gap[last],
-            table.gap[last + 1] + 0.005]
+    # past rupture: beyond the rupture gap of the next lower suction too, since linear
+    # interpolation in tetrahedra smears the rupture over one grid cell
+    far = ye.synthetic_bridge(ratio, table.suction[j - 1], 0.0)["g_rupt"] + 0.02
+    gaps = [-0.002, 0.0, table.gap[2], 0.5 * (table.gap[3] + table.gap[4]), table.gap[last], far]
     res = _run_delaunay(delaunay_dir, ratio, table.suction[j], gaps)
     scale = 2 * np.pi * GAMMA * R_SMALL
     f = table.force[i, j]
@@ -430,21 +570,25 @@ def test_capillarity_engine_volume_control(delaunay_dir, table, ratio, j):
 @pytest.mark.yade
 @pytest.mark.slow
 def test_exact_solver_export_loads_in_yade(tmp_path):
-    """The real solver's export (equal spheres only, placeholders for other ratios)."""
-    from capbridge.generator import young_laplace
+    """The real solver's export (equal spheres, placeholders for the other ratios), read
+    by both engines at a tabulated suction, agrees with the solver in between the gaps."""
+    from capbridge.generator import young_laplace as yl
 
-    if not hasattr(young_laplace, "solve_doublet_suction"):
+    if not hasattr(yl, "solve_doublet_suction"):
         pytest.skip("solve_doublet_suction not in capbridge.generator.young_laplace yet")
-    suctions = np.array([0.0, 0.5, 1.0, 2.0, 5.0])
-    gaps = np.linspace(0.0, 0.4, 9)
+    theta, suctions = 30.0, np.array([0.0, 0.5, 1.0, 2.0, 5.0])
     with pytest.warns(UserWarning, match="placeholder"):
-        tab, _ = ye.export_from_solver(tmp_path, 30.0, ratios=(1.0,), suctions=suctions,
-                                       gaps=gaps, missing="stub")
-    j = 3
-    conv = np.flatnonzero(tab.converged[0, j])
-    assert conv.size >= 2
-    ks = conv[:3]
-    res = _run_law2(tmp_path, ye.theta_suffix(30), 1.0, suctions[j], gaps[ks])
-    for row, k in zip(res["rows"], ks):
-        assert row["force"] == pytest.approx(tab.force[0, j, k] * 2 * np.pi * GAMMA * R_SMALL,
-                                             rel=REL_TOL)
+        tab, _ = ye.export_from_solver(tmp_path, theta, ratios=(1.0,), suctions=suctions,
+                                       n_gaps=25, missing="stub")
+    assert np.isfinite(tab.edge["suction"]).sum() > suctions.size
+    j = 2
+    g_r = float(yl.suction_rupture_distance(-suctions[j], theta)["gap"])
+    gaps = np.array([0.0, 0.3, 0.55, 0.7]) * g_r           # off the gap grid
+    exact = yl.solve_doublet_suction(gaps, -suctions[j], theta)["force"] * 2 * np.pi * GAMMA * R_SMALL
+    law2 = _run_law2(tmp_path, ye.theta_suffix(theta), 1.0, suctions[j], gaps)
+    dela = _run_delaunay_file(tmp_path, "capillaryfile_theta30.txt", 1.0, suctions[j], gaps)
+    for r_l, r_d, f in zip(law2["rows"], dela["rows"], exact):
+        assert r_l["force"] == pytest.approx(f, rel=REL_TOL)
+        assert r_d["fCap"] == pytest.approx(f, rel=REL_TOL)
+    past = _run_law2(tmp_path, ye.theta_suffix(theta), 1.0, suctions[j], [1.2 * g_r + 0.02])
+    assert past["rows"][0]["force"] == 0.0

@@ -58,9 +58,18 @@ with ``R = r/R`` in (0, 1] (the engine queries ``min/max`` radius), ``succion = 
 :data:`FORMAT_NOTES`), ``ending`` 1 for points that mark the end of the bridge domain.  The engine
 triangulates the points (R, succion, distance) and (R, volume, distance); a query
 outside the convex hull, or in a tetrahedron whose four vertices all have ``ending=1``,
-gets no bridge.  capbridge therefore adds, after the last gap with a bridge on every
-(ratio, suction) line, one marker point (force 0, ``ending=1``) at the next gap of the
-table, and pads the hull (see :func:`write_delaunay_file`).
+gets no bridge.  capbridge therefore ends every (ratio, suction) line with one marker
+point (force 0, ``ending=1``) just past its last bridge, and pads the hull (see
+:func:`delaunay_records`).
+
+Accuracy (measured in YADE with the exact solver's export, theta = 30 deg): at
+tabulated ratios and suctions both engines reproduce the solver to 1e-4 up to 80 % of
+the rupture gap; between tabulated suctions Law2 stays within 0.2 %, CapillarityEngine
+within 0.5-3 % (its tetrahedra span neighbouring suctions and ratios in very
+anisotropic coordinates).  Near rupture the force is resolved to one grid cell: Law2
+fades it linearly to zero over the gap step that contains the rupture gap (with the
+table's rupture points, :class:`SuctionTable` ``edge``; without them it drops bridges
+already where the next tabulated suction ruptures).
 
 Using the files in YADE (both engines read relative to the working directory)::
 
@@ -98,12 +107,13 @@ from capbridge.status import Status
 
 __all__ = [
     "YADE_RATIOS", "LAW2_COLUMNS", "DELAUNAY_COLUMNS", "FORMAT_NOTES",
-    "SuctionTable", "synthetic_suction_table", "theta_suffix", "capillary_file_name",
+    "SuctionTable", "synthetic_suction_table", "synthetic_bridge", "theta_suffix",
+    "capillary_file_name",
     "to_yade_units", "from_yade_units",
     "capillary_file_blocks", "write_capillary_files", "read_capillary_file",
     "read_capillary_files", "law2_interpolate", "law2_force",
     "delaunay_records", "write_delaunay_file", "read_delaunay_file",
-    "export_from_solver",
+    "rupture_edge", "export_from_solver",
 ]
 
 #: Radius ratios R/r of the ten files ``Law2_ScGeom_CapillaryPhys_Capillarity`` loads, in
@@ -150,6 +160,12 @@ FORMAT_NOTES = (
 
 _FLOAT_FMT = "%.15g"
 
+#: End markers of the CapillarityEngine file sit this fraction of the local gap step
+#: past a line's rupture point.  Hugging the rupture keeps the tetrahedra beyond it made
+#: of markers only (checked in YADE: 0.02 leaves no force past rupture on the tested
+#: lines, 0.1 leaves up to 12 % of the contact force, a whole step up to 65 %).
+_MARKER_FRAC = 0.02
+
 
 # ------------------------------------------------------------------------------------
 # The table handed to the writers
@@ -173,6 +189,17 @@ class SuctionTable:
     ``status`` (:class:`capbridge.status.Status`, 0 = converged; only converged points
     are exported); optional ``area`` (liquid-gas area / r^2), ``nn11``, ``nn33``
     (/ r^2).  ``theta`` is the contact angle [deg] of the whole table.
+
+    Optional ``edge``: bridges *at rupture* (the end of the stable branch at fixed
+    suction), a dict of arrays of shape ``(len(ratio), n)`` (NaN = no point) with keys
+    ``suction``, ``gap``, ``volume``, ``force``, ``beta1``, ``beta2`` (and ``area``).
+    Points whose gap is a gap of the grid end that gap's block of the ``M(r=...)``
+    file at the exact suction where the bridge ruptures, so YADE's Law2 keeps bridges
+    up to the grid gap just past rupture instead of cutting them at the next tabulated
+    suction; points whose suction is a grid suction end that line of the
+    ``CapillarityEngine`` file at the exact rupture gap.  :func:`export_from_solver`
+    computes both kinds.  Without them, a bridge near rupture loses its force early
+    (Law2: from the rupture gap of the next tabulated suction on).
     """
 
     ratio: np.ndarray
@@ -187,7 +214,10 @@ class SuctionTable:
     area: np.ndarray | None = None
     nn11: np.ndarray | None = None
     nn33: np.ndarray | None = None
+    edge: dict | None = None
     attrs: dict = dataclasses.field(default_factory=dict)
+
+    EDGE_KEYS = ("suction", "gap", "volume", "force", "beta1", "beta2")
 
     _VALUES = ("volume", "force", "beta1", "beta2", "area", "nn11", "nn33")
 
@@ -227,6 +257,29 @@ class SuctionTable:
             val = getattr(self, name)
             if val is not None and np.any(conv & ~np.isfinite(val)):
                 raise ValueError(f"{name} is given but not finite at every converged point")
+        if self.edge is not None:
+            edge = {k: np.atleast_2d(np.asarray(v, dtype=float)) for k, v in self.edge.items()}
+            missing = [k for k in self.EDGE_KEYS if k not in edge]
+            if missing:
+                raise ValueError(f"edge lacks {missing}")
+            n = edge["suction"].shape
+            if n[0] != self.ratio.size or any(v.shape != n for v in edge.values()):
+                raise ValueError("edge arrays must all have shape (len(ratio), n)")
+            ok = np.all([np.isfinite(edge[k]) for k in self.EDGE_KEYS], axis=0)
+            if "area" in edge:
+                ok &= np.isfinite(edge["area"])
+            for k in edge:                      # a point is all there or not at all
+                edge[k] = np.where(ok, edge[k], np.nan)
+            if np.any(ok & ~((edge["volume"] > 0) & (edge["suction"] >= 0) & (edge["gap"] >= 0))):
+                raise ValueError("edge points need volume > 0, suction >= 0, gap >= 0")
+            self.edge = edge
+
+    def edge_points(self, ratio_index):
+        """Finite rupture points of one ratio: dict of 1-D arrays (empty if none)."""
+        if self.edge is None:
+            return {k: np.empty(0) for k in self.EDGE_KEYS}
+        ok = np.isfinite(self.edge["suction"][ratio_index])
+        return {k: v[ratio_index][ok] for k, v in self.edge.items()}
 
     @property
     def shape(self):
@@ -265,33 +318,69 @@ class SuctionTable:
                    attrs=dict(ds.attrs))
 
 
-def synthetic_suction_table(ratios=YADE_RATIOS, suctions=None, gaps=None, theta=0.0):
+def _synthetic_fields(rr, ss, gg, theta):
+    """The made-up smooth fields of :func:`synthetic_suction_table` (capbridge units)."""
+    c = math.cos(math.radians(theta))
+    a = 0.12 * (1.0 + 0.5 * np.log(rr)) * (0.6 + 0.4 * c)        # g_rupt = a (1 + 2/(1+0.2 s))
+    g_rupt = a * (1.0 + 2.0 / (1.0 + 0.2 * ss))
+    volume = 0.02 * rr**0.5 * (1.0 + 1.5 * gg) / (1.0 + 0.15 * ss) ** 1.2
+    force = c * (1.0 + 0.04 * np.sqrt(ss)) * (1.0 + 0.3 * (1 - 1 / rr)) * (1.0 - 0.55 * gg / g_rupt)
+    beta1 = (25.0 + 10.0 / (1.0 + 0.1 * ss)) * (1.0 - 0.3 * gg / g_rupt)
+    return {"volume": volume, "force": force, "beta1": beta1, "beta2": beta1 / rr**0.7,
+            "area": 0.5 * volume ** (2.0 / 3.0) * (1.0 + gg), "g_rupt": g_rupt, "a": a}
+
+
+def synthetic_suction_table(ratios=YADE_RATIOS, suctions=None, gaps=None, theta=0.0,
+                            edge=True):
     """A smooth, made-up table with the layout of a real one (for format tests only).
 
     Its numbers are *not* liquid-bridge solutions: smooth positive functions with a
-    rupture gap that shrinks with suction and grows with the radius ratio, so every
-    code path of the writers (rupture inside the grid, all ten ratios) is exercised.
+    rupture gap g_rupt(ratio, suction) that shrinks with suction and grows with the
+    radius ratio, so every code path of the writers (rupture inside the grid, all ten
+    ratios, rupture points in ``edge``) is exercised.  Evaluate the same functions
+    anywhere with :func:`synthetic_bridge`.
     """
     ratios = np.asarray(ratios, float)
     suctions = np.asarray(suctions if suctions is not None
                           else np.concatenate([[0.0], np.geomspace(0.05, 200.0, 24)]), float)
     gaps = np.asarray(gaps if gaps is not None else np.linspace(0.0, 0.8, 41), float)
     rr, ss, gg = np.meshgrid(ratios, suctions, gaps, indexing="ij")
-    c = math.cos(math.radians(theta))
-    g_rupt = 0.12 * (1.0 + 0.5 * np.log(rr)) * (1.0 + 2.0 / (1.0 + 0.2 * ss)) * (0.6 + 0.4 * c)
-    volume = 0.02 * rr**0.5 * (1.0 + 1.5 * gg) / (1.0 + 0.15 * ss) ** 1.2
-    force = c * (1.0 + 0.04 * np.sqrt(ss)) * (1.0 + 0.3 * (1 - 1 / rr)) * (1.0 - 0.55 * gg / g_rupt)
-    beta1 = (25.0 + 10.0 / (1.0 + 0.1 * ss)) * (1.0 - 0.3 * gg / g_rupt)
-    beta2 = beta1 / rr**0.7
-    area = 0.5 * volume ** (2.0 / 3.0) * (1.0 + gg)
-    status = np.where(gg <= g_rupt, int(Status.CONVERGED), int(Status.RUPTURED))
+    f = _synthetic_fields(rr, ss, gg, theta)
+    status = np.where(gg <= f["g_rupt"], int(Status.CONVERGED), int(Status.RUPTURED))
     bad = status != int(Status.CONVERGED)
-    for arr in (volume, beta1, beta2, area):
-        arr[bad] = np.nan
-    force[bad] = 0.0
-    return SuctionTable(ratio=ratios, suction=suctions, gap=gaps, volume=volume, force=force,
-                        beta1=beta1, beta2=beta2, status=status, theta=theta, area=area,
+    for k in ("volume", "beta1", "beta2", "area"):
+        f[k][bad] = np.nan
+    f["force"][bad] = 0.0
+    edge_pts = None
+    if edge:
+        # rupture at every grid suction (gap off the grid) ...
+        r2, s2 = np.meshgrid(ratios, suctions, indexing="ij")
+        g_a = _synthetic_fields(r2, s2, 0.0 * s2, theta)["g_rupt"]
+        # ... and at every grid gap (suction off the grid), inside the suction range
+        r3, g3 = np.meshgrid(ratios, gaps, indexing="ij")
+        a = _synthetic_fields(r3, 0.0 * g3, g3, theta)["a"]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_b = (2.0 / (g3 / a - 1.0) - 1.0) / 0.2
+        s_b = np.where((g3 > a) & (s_b >= suctions[0]) & (s_b <= suctions[-1]), s_b, np.nan)
+        r_e = np.concatenate([r2, r3], axis=1)
+        s_e = np.concatenate([s2, s_b], axis=1)
+        g_e = np.concatenate([g_a, g3], axis=1)
+        fe = _synthetic_fields(r_e, np.nan_to_num(s_e), g_e, theta)
+        edge_pts = {"suction": s_e, "gap": g_e, "area": fe["area"],
+                    **{k: fe[k] for k in ("volume", "force", "beta1", "beta2")}}
+    return SuctionTable(ratio=ratios, suction=suctions, gap=gaps, volume=f["volume"],
+                        force=f["force"], beta1=f["beta1"], beta2=f["beta2"], status=status,
+                        theta=theta, area=f["area"], edge=edge_pts,
                         attrs={"source": "capbridge.dem_plugin.yade_export.synthetic_suction_table"})
+
+
+def synthetic_bridge(ratio, suction, gap, theta=0.0):
+    """The synthetic table's fields at any (ratio, suction, gap); force 0 past rupture."""
+    f = _synthetic_fields(*np.broadcast_arrays(*(np.asarray(x, float) for x in (ratio, suction, gap))),
+                          theta)
+    alive = np.asarray(gap) <= f["g_rupt"]
+    return {"force": np.where(alive, f["force"], 0.0), "volume": np.where(alive, f["volume"], np.nan),
+            "g_rupt": f["g_rupt"]}
 
 
 # ------------------------------------------------------------------------------------
@@ -389,7 +478,8 @@ def capillary_file_blocks(table, ratio_index):
     Returns ``(blocks, report)``: ``blocks`` is a list of ``(D, rows)`` with ``rows`` an
     ``(n, 8)`` array in :data:`LAW2_COLUMNS` order (YADE units, P increasing);
     ``report`` counts what was left out.  A block holds the converged suctions of one
-    gap; the file ends before the first gap with fewer than two converged suctions
+    gap, then the table's rupture point at that gap if it has one (see
+    :class:`SuctionTable`); the file ends before the first gap with fewer than two rows
     (YADE needs two rows to interpolate and crashes on an empty block).
     """
     t = table
@@ -399,32 +489,46 @@ def capillary_file_blocks(table, ratio_index):
                          f"(first gap {t.gap[0]:g}); YADE indexes block -1 below the first")
     conv = t.converged[ratio_index]           # (suction, gap)
     y = to_yade_units(rho, suction=t.suction, gap=t.gap)
-    blocks, interior_dropped = [], 0
+    edge = t.edge_points(ratio_index)
+    blocks, interior_dropped, edge_rows = [], 0, 0
     for k in range(t.gap.size):
         keep = np.flatnonzero(conv[:, k])
-        if keep.size < 2:
-            break
-        # non-converged suctions between converged ones: YADE will interpolate across
-        interior_dropped += int(keep[-1] - keep[0] + 1 - keep.size) + int(keep[0])
-        v = to_yade_units(rho, volume=t.volume[ratio_index, keep, k],
-                          force=t.force[ratio_index, keep, k])
         rows = np.empty((keep.size, 8))
         rows[:, 0] = y["D"][k]
-        rows[:, 1] = y["P"][keep]
-        rows[:, 2] = v["V"]
-        rows[:, 3] = v["F"]
-        rows[:, 4] = t.beta1[ratio_index, keep, k]
-        rows[:, 5] = t.beta2[ratio_index, keep, k]
-        for col, name in ((6, "nn11"), (7, "nn33")):
-            arr = getattr(t, name)
-            rows[:, col] = 0.0 if arr is None else arr[ratio_index, keep, k] / rho**2
+        if keep.size:
+            # non-converged suctions between converged ones: YADE will interpolate across
+            interior_dropped += int(keep[-1] - keep[0] + 1 - keep.size) + int(keep[0])
+            v = to_yade_units(rho, volume=t.volume[ratio_index, keep, k],
+                              force=t.force[ratio_index, keep, k])
+            rows[:, 1] = y["P"][keep]
+            rows[:, 2] = v["V"]
+            rows[:, 3] = v["F"]
+            rows[:, 4] = t.beta1[ratio_index, keep, k]
+            rows[:, 5] = t.beta2[ratio_index, keep, k]
+            for col, name in ((6, "nn11"), (7, "nn33")):
+                arr = getattr(t, name)
+                rows[:, col] = 0.0 if arr is None else arr[ratio_index, keep, k] / rho**2
+        # the bridge that ruptures exactly at this gap closes the block
+        at_k = np.flatnonzero(np.isclose(edge["gap"], t.gap[k], rtol=1e-12, atol=1e-15))
+        s_last = t.suction[keep[-1]] if keep.size else -np.inf
+        at_k = [e for e in at_k if edge["suction"][e] > s_last * (1 + 1e-9) + 1e-300]
+        if at_k:
+            e = max(at_k, key=lambda e: edge["suction"][e])
+            ve = to_yade_units(rho, suction=edge["suction"][e], volume=edge["volume"][e],
+                               force=edge["force"][e])
+            rows = np.vstack([rows, [y["D"][k], ve["P"], ve["V"], ve["F"],
+                                     edge["beta1"][e], edge["beta2"][e], 0.0, 0.0]])
+            edge_rows += 1
+        if len(rows) < 2:
+            break
         blocks.append((float(y["D"][k]), rows))
     if not blocks:
         raise ValueError(f"ratio {rho:g}: fewer than two converged suctions at gap 0; "
                          "nothing YADE could interpolate")
     n_conv = int(conv.sum())
-    n_written = sum(len(r) for _, r in blocks)
-    report = {"ratio": rho, "blocks": len(blocks), "rows": n_written,
+    n_written = sum(len(r) for _, r in blocks) - edge_rows
+    report = {"ratio": rho, "blocks": len(blocks), "rows": n_written + edge_rows,
+              "rupture_rows": edge_rows,
               "max_D": blocks[-1][0], "max_gap": blocks[-1][0] * rho,
               "converged_points_not_written": n_conv - n_written,
               "interior_points_missing": interior_dropped,
@@ -627,21 +731,43 @@ def law2_force(files, radius1, radius2, distance, suction, surface_tension):
 # ------------------------------------------------------------------------------------
 
 
+def _delaunay_rows(rho, suction, gap, volume, force, beta1, beta2, area, ang):
+    """Records (ending 0) for bridges given in capbridge units (1-D arrays)."""
+    n = np.size(gap)
+    y = to_yade_units(rho, suction=suction, gap=gap, volume=volume, force=force, delaunay=True)
+    if area is not None:
+        dry = 2 * np.pi * ((1 + np.cos(np.radians(beta1))) + rho**2 * (1 + np.cos(np.radians(beta2))))
+        surface = (np.asarray(area, float) + dry) / rho**2
+    else:
+        surface = np.zeros(n)
+    return np.column_stack([np.broadcast_to(y["P"], (n,)), y["F"], y["D"], y["V"], surface,
+                            np.zeros(n), np.asarray(beta1) * ang, np.asarray(beta2) * ang,
+                            np.full(n, 1.0 / rho), np.zeros(n)])
+
+
 def delaunay_records(solutions, *, overlap_pad=0.05, ratio_pad=0.01, angle_unit="deg",
                      theta=None):
     """Records of ``CapillarityEngine``'s input file, as an ``(n, 10)`` array.
 
     Columns in :data:`DELAUNAY_COLUMNS` order, YADE units (larger radius).  For every
-    (ratio, suction) line of the table: one record per converged gap; after the last
-    converged gap, if the table goes on, one end marker (the last bridge's values with
-    force 0 and ``ending = 1``) at the next gap, so that queries beyond rupture fall in
-    tetrahedra of markers only and get no bridge; and, with ``overlap_pad > 0``, a copy
-    of the gap-0 record at distance ``-overlap_pad`` (in units of R) so that
-    overlapping contacts, whose distance YADE does not clamp, keep the contact
-    solution.  With ``ratio_pad > 0`` the records of ratio 1 (R = 1, on the edge of the
-    data) are copied to R = 1 + ratio_pad, and, if 1 is the only ratio, also to
-    R = 1 - ratio_pad (pairs up to R/r = 1/(1 - ratio_pad) then count as equal spheres):
-    the triangulation must be three-dimensional and queries at R = 1 inside it.
+    (ratio, suction) line of the table: one record per converged gap, then the bridge
+    at rupture if the table's ``edge`` has it for that suction; then, if the table goes
+    on, one end marker (the last bridge's values with force 0 and ``ending = 1``) just
+    past the end of the line (2 % of a gap step past the rupture point, or at the next
+    gap of the grid without one), so that queries beyond rupture fall in tetrahedra of
+    markers only and get no bridge.  The table's rupture points at grid gaps (made for
+    the ``M(r=...)`` files) are left out: between the lines they put bridge vertices
+    among the markers, and YADE then found forces past rupture.  With
+    ``overlap_pad > 0`` the gap-0
+    record of every line is copied to distance ``-overlap_pad`` (in units of R) so that
+    overlapping contacts, whose distance YADE does not clamp, keep the contact solution.
+    With ``ratio_pad > 0`` the records of the two extreme ratios are copied just outside
+    the range: ratio 1 (R = 1) to R = 1 + ratio_pad (never queried) and the largest
+    ratio (smallest R) to R (1 - ratio_pad), so pairs up to ratio/(1 - ratio_pad) get
+    the largest ratio's bridges instead of none.  This keeps the triangulation
+    three-dimensional even for one ratio and puts queries at the extreme ratios inside
+    it (on the hull, YADE may pick a tetrahedron reaching into the neighbouring ratio,
+    or an infinite one: no bridge).
     """
     t = _as_table(solutions, theta)
     if angle_unit not in ("deg", "rad"):
@@ -649,31 +775,35 @@ def delaunay_records(solutions, *, overlap_pad=0.05, ratio_pad=0.01, angle_unit=
     ang = 1.0 if angle_unit == "deg" else math.pi / 180.0
     recs = []
     for i, rho in enumerate(t.ratio):
-        y = to_yade_units(rho, suction=t.suction, gap=t.gap)
+        y = to_yade_units(rho, gap=t.gap)
+        edge = t.edge_points(i)
         for j in range(t.suction.size):
             conv = np.flatnonzero(t.converged[i, j])
             if conv.size == 0:
                 continue
-            v = to_yade_units(rho, volume=t.volume[i, j, conv], force=t.force[i, j, conv],
-                              delaunay=True)
-            b1 = t.beta1[i, j, conv]
-            b2 = t.beta2[i, j, conv]
-            if t.area is not None:
-                dry = 2 * np.pi * ((1 + np.cos(np.radians(b1))) + rho**2 * (1 + np.cos(np.radians(b2))))
-                surface = (t.area[i, j, conv] + dry) / rho**2
-            else:
-                surface = np.zeros(conv.size)
-            block = np.column_stack([
-                np.full(conv.size, y["P"][j]), v["F"], y["D"][conv], v["V"], surface,
-                np.zeros(conv.size), b1 * ang, b2 * ang, np.full(conv.size, 1.0 / rho),
-                np.zeros(conv.size)])
-            recs.append(block)
+            block = _delaunay_rows(rho, t.suction[j], t.gap[conv], t.volume[i, j, conv],
+                                   t.force[i, j, conv], t.beta1[i, j, conv], t.beta2[i, j, conv],
+                                   None if t.area is None else t.area[i, j, conv], ang)
             last = conv[-1]
+            # this line's rupture point, if the table has it beyond the last grid bridge
+            e = np.flatnonzero(np.isclose(edge["suction"], t.suction[j], rtol=1e-12, atol=1e-15)
+                               & (edge["gap"] > t.gap[last]))
+            if e.size:
+                e = e[0]
+                block = np.vstack([block, _delaunay_rows(
+                    rho, edge["suction"][e], [edge["gap"][e]], [edge["volume"][e]],
+                    [edge["force"][e]], [edge["beta1"][e]], [edge["beta2"][e]],
+                    None if (t.area is None or "area" not in edge) else [edge["area"][e]],
+                    ang)])
+            recs.append(block)
             if last + 1 < t.gap.size:
                 marker = block[-1].copy()
                 marker[1] = 0.0
-                marker[2] = y["D"][last + 1]
                 marker[9] = 1.0
+                if e.size:
+                    marker[2] = block[-1, 2] + _MARKER_FRAC * (y["D"][last + 1] - y["D"][last])
+                else:
+                    marker[2] = y["D"][last + 1]
                 recs.append(marker[None, :])
             if overlap_pad > 0 and conv[0] == 0 and t.gap[0] == 0.0:
                 pad = block[0].copy()
@@ -683,16 +813,17 @@ def delaunay_records(solutions, *, overlap_pad=0.05, ratio_pad=0.01, angle_unit=
         raise ValueError("the table holds no converged point")
     rec = np.vstack(recs)
     if ratio_pad > 0:
-        top = rec[np.isclose(rec[:, 8], 1.0, rtol=0, atol=1e-12)]
         extra = []
+        top = rec[np.isclose(rec[:, 8], 1.0, rtol=0, atol=1e-12)]
         if top.size:
             up = top.copy()
             up[:, 8] = 1.0 + ratio_pad
             extra.append(up)
-            if np.allclose(rec[:, 8], 1.0):
-                down = top.copy()
-                down[:, 8] = 1.0 - ratio_pad
-                extra.append(down)
+        r_min = rec[:, 8].min()
+        bottom = rec[np.isclose(rec[:, 8], r_min, rtol=1e-12, atol=0)]
+        down = bottom.copy()
+        down[:, 8] = r_min * (1.0 - ratio_pad)
+        extra.append(down)
         rec = np.vstack([rec] + extra)
     if np.unique(rec[:, 8]).size < 2:
         raise ValueError("CapillarityEngine needs a 3-D point set: give several ratios "
@@ -774,42 +905,137 @@ def _write_manifest(path, table, info):
     return path
 
 
+_BRIDGE_KEYS = ("volume", "force", "beta1", "beta2", "area")
+
+
+def rupture_edge(theta, ratios, suctions, gaps, *, solver_kwargs=None, tol=1e-10,
+                 max_iter=60):
+    """Bridges at rupture for :attr:`SuctionTable.edge`, from the exact solver.
+
+    For every ratio: the rupture of every grid suction (``suction_rupture_distance``),
+    and, for every grid gap inside the range of those rupture gaps, the suction whose
+    bridge ruptures exactly at that gap (bracketed between grid suctions, Illinois
+    iterations on the rupture gap to ``tol``).  Returns the ``edge`` dict (capbridge
+    units, shape ``(len(ratios), len(suctions) + len(gaps))``, NaN = no point).
+    """
+    from capbridge.generator.young_laplace import suction_rupture_distance
+
+    kw = solver_kwargs or {}
+    ratios, suctions, gaps = (np.asarray(a, float) for a in (ratios, suctions, gaps))
+    n_s, n_g = suctions.size, gaps.size
+    out = {k: np.full((ratios.size, n_s + n_g), np.nan)
+           for k in ("suction", "gap") + _BRIDGE_KEYS}
+
+    def rupture(s, rho):
+        r = suction_rupture_distance(-np.asarray(s, float), theta, ratio=float(rho), **kw)
+        ok = np.asarray(r["status"]) == int(Status.CONVERGED)
+        return {k: np.where(ok, np.asarray(r[k], float), np.nan) for k in ("gap",) + _BRIDGE_KEYS
+                if k in r}
+
+    for i, rho in enumerate(ratios):
+        a = rupture(suctions, rho)
+        out["suction"][i, :n_s] = np.where(np.isfinite(a["gap"]), suctions, np.nan)
+        for k in a:
+            out[k][i, :n_s] = a[k]
+        d_r = a["gap"]
+        # brackets [s_j, s_j+1] with d_r(s_j) >= g > d_r(s_j+1) for the grid gaps g
+        lo, hi, f_lo, f_hi, idx = [], [], [], [], []
+        for k, g in enumerate(gaps):
+            if g <= 0:
+                continue
+            j = np.flatnonzero((d_r[:-1] >= g) & (d_r[1:] < g))
+            if j.size:
+                j = j[0]
+                lo.append(suctions[j]); hi.append(suctions[j + 1])
+                f_lo.append(d_r[j] - g); f_hi.append(d_r[j + 1] - g); idx.append(k)
+        if not idx:
+            continue
+        lo, hi, f_lo, f_hi = map(np.array, (lo, hi, f_lo, f_hi))
+        idx = np.array(idx)
+        target = gaps[idx]
+        side = np.zeros(idx.size, int)
+        x = lo.copy()
+        for _ in range(max_iter):                 # Illinois (modified regula falsi)
+            x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+            f = rupture(x, rho)["gap"] - target
+            bad = ~np.isfinite(f)
+            x[bad] = 0.5 * (lo[bad] + hi[bad])
+            f[bad] = (rupture(x[bad], rho)["gap"] - target[bad]) if bad.any() else f[bad]
+            done = np.abs(f) <= tol * np.maximum(target, 1.0)
+            if np.all(done | ~np.isfinite(f)):
+                break
+            left = f > 0                          # root lies above x
+            lo = np.where(left, x, lo); f_lo = np.where(left, f, f_lo)
+            hi = np.where(left, hi, x); f_hi = np.where(left, f_hi, f)
+            f_hi = np.where(left & (side == 1), f_hi / 2, f_hi)
+            f_lo = np.where(~left & (side == -1), f_lo / 2, f_lo)
+            side = np.where(left, 1, -1)
+        b = rupture(x, rho)
+        good = np.isfinite(b["gap"]) & (np.abs(b["gap"] - target) <= 1e3 * tol * np.maximum(target, 1.0))
+        cols = n_s + idx[good]
+        out["suction"][i, cols] = x[good]
+        out["gap"][i, cols] = target[good]       # exactly the grid gap (within tol)
+        for k in _BRIDGE_KEYS:
+            if k in b:
+                out[k][i, cols] = b[k][good]
+    if not np.isfinite(out["area"]).any():
+        del out["area"]
+    return out
+
+
 def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps=None, *,
-                       suffix=None, law2=True, delaunay=True,
+                       n_gaps=61, suffix=None, law2=True, delaunay=True, edge=True,
                        delaunay_name="capillaryfile{suffix}.txt", solver_kwargs=None,
                        missing="error"):
     """Solve the suction-controlled doublets with capbridge's exact solver and write them.
 
     Calls ``capbridge.generator.young_laplace.solve_doublet_suction(gap, pressure, theta,
-    ratio)`` on the grid ``ratios x suctions x gaps`` (pressure P* = -suction), then
-    :func:`write_capillary_files` (suffix :func:`theta_suffix` unless given) and
-    :func:`write_delaunay_file`.  Default grids: 40 suctions from 0 to 500 (geometric
-    above 0.01) and 61 gaps from 0 to 0.9 r.  Returns ``(table, paths)``.
+    ratio)`` on the grid ``ratios x suctions x gaps`` (pressure P* = -suction, capbridge
+    units: smaller radius), adds the bridges at rupture (:func:`rupture_edge`) unless
+    ``edge=False``, then writes :func:`write_capillary_files` (suffix
+    :func:`theta_suffix` unless given) and :func:`write_delaunay_file`.
+
+    Default grids: 48 suctions, 0 then geometric from 0.02 to 500; ``n_gaps`` gaps from
+    0 to 2 % past the largest rupture gap (that of zero suction and the largest ratio).
+    YADE's historical files used 350 suctions and 80 distances; the cost here is about
+    8 ms per point.  Returns ``(table, paths)``.
     """
     try:
         from capbridge.generator.young_laplace import solve_doublet_suction
     except ImportError as exc:  # the solver is not there (yet)
         raise RuntimeError("capbridge.generator.young_laplace.solve_doublet_suction is "
                            f"not available: {exc}") from exc
+    kw = solver_kwargs or {}
     ratios = np.asarray(ratios, float)
     suctions = np.asarray(suctions if suctions is not None
-                          else np.concatenate([[0.0], np.geomspace(0.01, 500.0, 39)]), float)
-    gaps = np.asarray(gaps if gaps is not None else np.linspace(0.0, 0.9, 61), float)
+                          else np.concatenate([[0.0], np.geomspace(0.02, 500.0, 47)]), float)
+    if gaps is None:
+        from capbridge.generator.young_laplace import suction_rupture_distance
+        r0 = suction_rupture_distance(np.zeros(ratios.size), theta, ratio=ratios, **kw)
+        g_max = np.nanmax(np.where(np.asarray(r0["status"]) == 0, r0["gap"], np.nan))
+        if not np.isfinite(g_max):
+            raise RuntimeError("no rupture distance at zero suction: give the gaps")
+        gaps = np.linspace(0.0, 1.02 * float(g_max), int(n_gaps))
+    gaps = np.asarray(gaps, float)
     shape = (ratios.size, suctions.size, gaps.size)
-    fields = {k: np.full(shape, np.nan) for k in ("volume", "force", "beta1", "beta2", "area")}
+    fields = {k: np.full(shape, np.nan) for k in _BRIDGE_KEYS}
     status = np.full(shape, int(Status.NOT_COMPUTED))
     gg, ss = np.meshgrid(gaps, suctions)                     # (suction, gap)
     for i, rho in enumerate(ratios):
-        res = solve_doublet_suction(gg, -ss, theta, ratio=float(rho), **(solver_kwargs or {}))
+        res = solve_doublet_suction(gg, -ss, theta, ratio=float(rho), **kw)
         for k in fields:
             if k in res:
                 fields[k][i] = np.broadcast_to(np.asarray(res[k], float), gg.shape)
         status[i] = np.broadcast_to(np.asarray(res["status"], int), gg.shape)
+    conv = status == int(Status.CONVERGED)
+    area = fields["area"] if np.all(np.isfinite(fields["area"][conv])) else None
     table = SuctionTable(ratio=ratios, suction=suctions, gap=gaps, status=status, theta=theta,
-                         area=fields["area"] if np.isfinite(fields["area"]).any() else None,
-                         volume=fields["volume"], force=fields["force"],
+                         area=area, volume=fields["volume"], force=fields["force"],
                          beta1=fields["beta1"], beta2=fields["beta2"],
-                         attrs={"source": "capbridge.generator.young_laplace.solve_doublet_suction"})
+                         edge=rupture_edge(theta, ratios, suctions, gaps, solver_kwargs=kw)
+                         if edge else None,
+                         attrs={"source": "capbridge.generator.young_laplace.solve_doublet_suction",
+                                "rupture_edge": "suction_rupture_distance" if edge else "none"})
     suffix = theta_suffix(theta) if suffix is None else suffix
     paths = []
     if law2:

@@ -27,7 +27,10 @@ A scene written for both ways starts with::
     from yade import utils
 
 and reports its result with :func:`emit_result`, one JSON line on stdout that
-:func:`run_yade_script` picks out of YADE's own chatter.
+:func:`run_yade_script` picks out of YADE's own chatter.  Under the launcher the
+scene runs in the launcher's own globals: rebinding names it uses afterwards
+(``opts``, ``args``, ``par``...) makes it fail after the scene ends (seen with
+``opts``), so scenes name their parsers differently.
 
 Files read by YADE engines (``M(r=...)`` capillary files, ``capillaryfile.txt``) are
 opened relative to the working directory of the YADE process: pass ``cwd``.

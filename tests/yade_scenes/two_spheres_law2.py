@@ -1,6 +1,7 @@
 """Two fixed spheres under YADE's Law2_ScGeom_CapillaryPhys_Capillarity, fed with M(r=...) files.
 
-Run either way (see capbridge.dem_plugin.yade_runtime):
+Run either way (see capbridge.dem_plugin.yade_runtime; capbridge must be importable,
+e.g. PYTHONPATH=<project root>, which run_yade_script sets):
     python two_spheres_law2.py  --dir DIR --suffix _theta0 --r1 1e-3 --r2 2e-3 \
         --suction 100 --gamma 0.073 --gaps=0,1e-5,2e-4
     yade -n -x two_spheres_law2.py --dir DIR ...
@@ -11,7 +12,6 @@ physics).  The result is printed as one JSON line (CAPBRIDGE_RESULT ...), togeth
 what capbridge's emulation of YADE's interpolation expects from the same files.
 """
 import argparse
-import math
 import os
 import sys
 

@@ -1,0 +1,1 @@
+"""DEM integration: YADE runtime helpers and export of capbridge tables to YADE formats."""
