@@ -98,8 +98,12 @@ class MeshedProblem:
         return out
 
 
-def mesh_problem(problem, n_ring=8, near_margin=1.0):
-    """Starting meshes and constraint numbers for every body of ``problem``."""
+def mesh_problem(problem, n_ring=8, near_margin=1.0, one_sided=True):
+    """Starting meshes and constraint numbers for every body of ``problem``.
+
+    ``one_sided=False`` leaves the free vertices unconstrained (only for demonstrating
+    what the failure checks catch: the free surface may then cut into grains).
+    """
     meshes = [starting_body(b.grains, problem.centres, problem.radii, b.volume, n=n_ring)
               for b in problem.bodies]
     contact = {}
@@ -119,7 +123,7 @@ def mesh_problem(problem, n_ring=8, near_margin=1.0):
             d = np.linalg.norm(np.maximum(0.0, np.maximum(lo - ext - c, c - hi - ext)))
             if d <= problem.radii[g]:
                 sel.append(g)
-        near.append(sel)
+        near.append(sel if one_sided else [])
     used = sorted({g for s in near for g in s})
     outside = {g: nc + 1 + i for i, g in enumerate(used)}
     return MeshedProblem(problem, meshes, contact, outside, near)

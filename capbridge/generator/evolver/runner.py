@@ -11,6 +11,7 @@ import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -70,26 +71,50 @@ def run_evolver(datafile, commands, workdir, timeout=60.0, name="run"):
         if not commands.rstrip().endswith("quit"):
             fh.write("\nquit\n")
     t0 = time.monotonic()
-    r0 = os.times()
     proc = subprocess.Popen([exe, "-x", "-f", os.path.basename(cmdfile), str(datafile)],
                             cwd=workdir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, errors="replace",
                             start_new_session=True)
+    chunks = {"out": [], "err": []}
+
+    def _reader(stream, key):
+        for line in stream:
+            chunks[key].append(line)
+
+    readers = [threading.Thread(target=_reader, args=(proc.stdout, "out"), daemon=True),
+               threading.Thread(target=_reader, args=(proc.stderr, "err"), daemon=True)]
+    for t in readers:
+        t.start()
     timed_out = False
+    status, usage = 0, None
+    deadline = t0 + timeout
     try:
-        out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        timed_out = True
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid != 0:
+                break
+            if time.monotonic() > deadline:
+                timed_out = True
+                _kill_group(proc)
+                pid, status, usage = os.wait4(proc.pid, 0)
+                break
+            time.sleep(0.01)
+    except BaseException:
         _kill_group(proc)
-        out, err = proc.communicate()
-    finally:
-        if proc.poll() is None:
-            _kill_group(proc)
-            proc.wait()
-    r1 = os.times()
-    cpu = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
-    return RunOutput(out, err, proc.returncode, time.monotonic() - t0, cpu, timed_out,
-                     workdir)
+        try:
+            os.wait4(proc.pid, 0)
+        except ChildProcessError:
+            pass
+        proc.returncode = -9
+        raise
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    # the evolver process is gone; kill any leftover of its group (none expected)
+    _kill_group(proc)
+    for t in readers:
+        t.join(timeout=5)
+    cpu = (usage.ru_utime + usage.ru_stime) if usage is not None else float("nan")
+    return RunOutput("".join(chunks["out"]), "".join(chunks["err"]), proc.returncode,
+                     time.monotonic() - t0, cpu, timed_out, workdir)
 
 
 def _kill_group(proc):

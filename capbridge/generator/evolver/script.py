@@ -47,7 +47,7 @@ def prelude(grain_contacts, etol=1e-11):
     ``grain_contacts``: grain (0-based) -> contact constraint numbers (for ``cb_viol``).
     """
     return f"""quiet on;
-cb_etol := {etol!r};
+cb_etol := {etol!r}; cb_vtol := 1e-9;
 cb_nh := 0; cb_hrej := 0; cb_lastde := 0; cb_tfrac := 0.25; cb_lfrac := 1.8; cb_ng := 0;
 {violation_function(grain_contacts)}
 procedure cb_save() {{
@@ -58,17 +58,18 @@ procedure cb_restore() {{
   recalc;
 }}
 procedure cb_relax(integer ngrad, integer maxhess) {{
-  local ee0, kk;
+  local ee0, kk, vv0;
   cb_nh := 0; cb_hrej := 0; cb_lastde := 1e30; cb_ng := 0;
   if ngrad > 0 then g ngrad;
   for (kk := 1; kk <= maxhess; kk += 1) {{
     ee0 := total_energy;
+    vv0 := max(body, abs(volume - target)/target);
     cb_save();
     hessian_seek;
     if cb_viol() > 0 then {{ g 1; cb_ng += 1; }};
     cb_nh += 1;
     cb_lastde := ee0 - total_energy;
-    if total_energy > ee0 + cb_etol then {{
+    if total_energy > ee0 + cb_etol and vv0 < cb_vtol then {{
       cb_restore(); cb_hrej += 1;
       g ngrad + 5;
     }} else if abs(cb_lastde) < cb_etol then break;
@@ -125,13 +126,15 @@ def band_refine(contact):
 
 
 def converge_level(level, contact, outside, ngrad=20, maxhess=8, refine=True, groom=True,
-                   newton=True, dumpfile=None, ngrad_first=40, band=0):
+                   newton=True, dumpfile=None, ngrad_first=40, band=0, bond=None):
     """Commands for one refinement level: refine, groom, relax, report, dump.
 
     Level 0 relaxes the starting mesh (no refinement; more gradient steps, since the
-    volume is being brought to its target).
+    volume is being brought to its target).  ``bond`` sets the Bond number parameter
+    ``bo`` first (gravity is switched on only from level 1: the coarse starting mesh
+    folds under strong gravity).
     """
-    c = []
+    c = [] if bond is None else [f"bo := {float(bond)!r}; recalc;"]
     if level == 0:
         c.append(f"g {ngrad_first};")
         if groom:
@@ -184,7 +187,10 @@ def displaced(grain, shift, n_grains, contact, outside, ngrad=0, maxhess=12,
          f"  vv.x := vv.x + ({dx!r})*ww; vv.y := vv.y + ({dy!r})*ww; "
          f"vv.z := vv.z + ({dz!r})*ww; }};",
          f"gx{k} := gx{k} + ({dx!r}); gy{k} := gy{k} + ({dy!r}); gz{k} := gz{k} + ({dz!r});",
-         "recalc;"]
+         "recalc;",
+         # a zero-length gradient step projects onto the constraints and sets the
+         # pressures, which Hessian steps need (they may be invalid after loading a dump)
+         "m 1e-12; g 1; optimize 1;"]
     if newton:
         c.append(f"cb_relax({ngrad}, {maxhess});")
     else:
