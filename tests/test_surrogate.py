@@ -99,3 +99,21 @@ def test_clip_fallback_is_flagged():
     sur = DoubletSurrogate(out_of_range="clip").fit(DEFAULT_TABLE)
     r = sur.predict(0.01, 5.0, 10.0)
     assert r["status"] == Status.EXTRAPOLATED and np.isfinite(r["force"])
+
+
+@pytest.mark.parametrize("ratio", [3.5, 7.0])
+def test_between_tabulated_ratios(surrogate, ratio):
+    """Spline across ratio slices: median <= 0.05 %, max <= 1 % (d* <= 0.96 d*_rupt)."""
+    rng = np.random.default_rng(11)
+    n = 80
+    th = rng.uniform(0, 60, n)
+    v = np.exp(rng.uniform(np.log(2e-3), np.log(0.3), n))
+    d_r = surrogate.predict(0.0, v, th, ratio)["rupture_gap"]
+    gap = d_r * (1 - rng.uniform(0.2, 1.0, n) ** 2)
+    exact = solve_doublet(gap, v, th, ratio)
+    approx = surrogate.predict(gap, v, th, ratio)
+    ok = exact["status"] == Status.CONVERGED
+    assert ok.mean() > 0.95
+    rel = np.abs(approx["force"][ok] / exact["force"][ok] - 1)
+    assert np.median(rel) < 5e-4
+    assert rel.max() < 1e-2

@@ -41,9 +41,9 @@ ATTRS = {
 }
 
 
-SHIPPED_RATIOS = (1.0,)
-SHIPPED_THETA_MAX = 50.0
-SHIPPED_VOLUME_MAX = 0.2
+SHIPPED_RATIOS = (1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 3.0, 4.0, 5.0, 10.0)  # YADE's M(r=...) set
+SHIPPED_THETA_MAX = 80.0
+SHIPPED_VOLUME_MAX = 0.5
 
 
 @dataclasses.dataclass(frozen=True)

@@ -8,7 +8,7 @@ import numpy as np
 from capbridge.status import Status
 
 DEMO_VOLUMES = (0.008, 0.05, 0.156)
-DEMO_THETAS = (0.0, 25.0, 50.0)
+DEMO_THETAS = (0.0, 30.0, 60.0)
 
 
 def run_demo(table, output_dir, n_gap=40):

@@ -159,22 +159,24 @@ class DoubletSurrogate:
         shape = status.shape
         g, v, t, r = (np.broadcast_to(a, shape).ravel() for a in (gap, volume, theta, ratio))
         out = {name: np.empty(g.size) for name in tuple(variables) + ("rupture_gap",)}
-        # slices of the ratio axis this call needs, and the blend weight between them
-        j = np.clip(np.searchsorted(self.ratios_, r, side="right") - 1, 0, len(self.ratios_) - 1)
-        exact = np.isclose(r, self.ratios_[j], rtol=1e-12, atol=0)
-        j_hi = np.minimum(j + 1, len(self.ratios_) - 1)
-        lr = np.log(self.ratios_)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            w = np.where(exact | (j_hi == j), 0.0, (np.log(r) - lr[j]) / (lr[j_hi] - lr[j]))
         for name in out:
             out[name][:] = 0.0
-        for jj in np.unique(np.concatenate([j, j_hi[w > 0]])):
-            for which, weight in ((j == jj, 1.0 - w), ((j_hi == jj) & (w > 0), w)):
-                if not which.any():
-                    continue
-                part = self._predict_slice(jj, g[which], v[which], t[which], variables)
+        # on a tabulated ratio: that slice alone; between: a cubic spline across the
+        # ratio slices (in log ratio), as linear weights on every slice's prediction
+        j = np.argmin(np.abs(np.log(r)[:, None] - np.log(self.ratios_)[None, :]), axis=1)
+        on_grid = np.isclose(r, self.ratios_[j], rtol=1e-12, atol=0)
+        for jj in np.unique(j[on_grid]):
+            which = on_grid & (j == jj)
+            part = self._predict_slice(jj, g[which], v[which], t[which], variables)
+            for name in out:
+                out[name][which] = part[name]
+        between = ~on_grid
+        if between.any():
+            weights = self._ratio_weights(r[between])
+            for jj in range(len(self.ratios_)):
+                part = self._predict_slice(jj, g[between], v[between], t[between], variables)
                 for name in out:
-                    out[name][which] += weight[which] * part[name]
+                    out[name][between] += weights[:, jj] * part[name]
         ruptured = g > out["rupture_gap"]
         st = status.ravel().copy()
         st[ruptured] = Status.RUPTURED
@@ -183,6 +185,13 @@ class DoubletSurrogate:
         res = {name: out[name].reshape(shape) for name in out}
         res["status"] = st.reshape(shape)
         return res
+
+    def _ratio_weights(self, ratio):
+        """Weights of each ratio slice in the spline through them, at ``ratio``."""
+        n = len(self.ratios_)
+        k = min(3, n - 1)
+        basis = make_interp_spline(np.log(self.ratios_), np.eye(n), k=k, axis=0)
+        return basis(np.log(ratio))
 
     def _predict_slice(self, jr, gap, volume, theta, variables):
         """Trilinear lookup on the fine grid of ratio slice ``jr``."""
