@@ -117,3 +117,16 @@ def test_between_tabulated_ratios(surrogate, ratio):
     rel = np.abs(approx["force"][ok] / exact["force"][ok] - 1)
     assert np.median(rel) < 5e-4
     assert rel.max() < 1e-2
+
+
+def test_si_api_matches_dimensionless(surrogate):
+    """Grains of 2 mm and 1 mm: the 1 mm grain normalises, the order does not matter."""
+    gamma, d, vol = 0.072, 0.1e-3, 0.05e-9
+    a = surrogate.predict_si(2e-3, 1e-3, gamma, d, vol, 30.0)
+    b = surrogate.predict_si(1e-3, 2e-3, gamma, d, vol, 30.0)
+    star = surrogate.predict(d / 1e-3, vol / 1e-9, 30.0, 2.0)
+    assert a["force"] == pytest.approx(star["force"] * 2 * np.pi * gamma * 1e-3, rel=1e-12)
+    assert a["force"] == pytest.approx(b["force"], rel=1e-12)
+    assert a["pressure"] == pytest.approx(star["pressure"] * gamma / 1e-3, rel=1e-12)
+    with pytest.raises(CapbridgeInputError, match="radius1"):
+        surrogate.predict_si(-1e-3, 1e-3, gamma, d, vol, 30.0)
