@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
 import xarray as xr
+
+from capbridge.generator.atomic import atomic_target
 
 from capbridge.status import Status, cf_flag_attributes
 
@@ -206,18 +206,8 @@ def write_table(ds: xr.Dataset, path, *, command: str, solver_settings: Mapping,
         encoding[name] = {**keep, **enc}
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".tmp-{path.name}-", suffix=".nc")
-    os.close(fd)
-    try:
-        ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4",
-                     encoding=encoding)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    with atomic_target(path, suffix=".nc") as tmp:
+        ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4", encoding=encoding)
     return path
 
 

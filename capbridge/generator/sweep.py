@@ -33,13 +33,13 @@ import logging
 import os
 import pickle
 import sys
-import tempfile
 import traceback
 from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
 
 import numpy as np
 
+from capbridge.generator.atomic import atomic_target
 from capbridge.status import Status
 
 __all__ = ["run_sweep", "SweepResult", "ChunkFailure", "CheckpointMismatchError"]
@@ -169,19 +169,11 @@ def _fsync_dir(path: Path) -> None:
 
 def _atomic_write(path: Path, write: Callable[[Any], None], mode: str = "wb") -> None:
     """Write ``path`` through a temp file in the same directory, then ``os.replace``."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".tmp-{path.name}-")
-    try:
-        with os.fdopen(fd, mode) as f:
+    with atomic_target(path) as tmp:
+        with open(tmp, mode) as f:
             write(f)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
     _fsync_dir(path.parent)
 
 
