@@ -89,6 +89,7 @@ import dataclasses
 
 import numpy as np
 
+from capbridge.dimensionless import cap_area, cap_volume
 from capbridge.status import Status
 from capbridge.validation import check_range
 
@@ -134,22 +135,6 @@ def _gauss_legendre(n):
     if n not in _GL_CACHE:
         _GL_CACHE[n] = np.polynomial.legendre.leggauss(n)
     return _GL_CACHE[n]
-
-
-def _cap_volume(radius, beta):
-    """Volume of the spherical cap of half-angle ``beta``, free of cancellation.
-
-    pi R^3 (1 - cos b)^2 (2 + cos b) / 3 with 1 - cos b = 2 sin^2(b/2): accurate to
-    round-off even for tiny caps on large spheres (the textbook 2 - 3 cos b + cos^3 b
-    loses ~1/b^4 of the digits, which stalled Newton at V* ~ 1e-3, ratio 10).
-    """
-    v = 2.0 * np.sin(0.5 * beta) ** 2
-    return np.pi * radius**3 * v * v * (2.0 + np.cos(beta)) / 3.0
-
-
-def _cap_area(radius, beta):
-    """Area of the spherical cap of half-angle ``beta``: 4 pi R^2 sin^2(b/2)."""
-    return 4.0 * np.pi * radius**2 * np.sin(0.5 * beta) ** 2
 
 
 def _wrap(a):
@@ -236,8 +221,8 @@ def _shape(h, beta1, length, theta1, theta2, ratio, nodes=DEFAULT_NODES, integra
         area = 2.0 * np.pi * np.sum(wj * y, axis=-1)
     # cos b - 1 = -2 sin^2(b/2): no cancellation for small caps on large spheres
     gap = axial - 2.0 * np.sin(0.5 * b1) ** 2 - 2.0 * R * np.sin(0.5 * b2) ** 2
-    volume = vol_rev - _cap_volume(1.0, b1) - _cap_volume(R, b2)
-    energy = area - np.cos(t1) * _cap_area(1.0, b1) - np.cos(t2) * _cap_area(R, b2)
+    volume = vol_rev - cap_volume(1.0, b1) - cap_volume(R, b2)
+    energy = area - np.cos(t1) * cap_area(1.0, b1) - np.cos(t2) * cap_area(R, b2)
     # smallest radius of the free surface: the contact circles or a neck y = |n|
     # (the necks sit at s = k pi/|h|, k integer)
     period = np.pi / np.maximum(np.abs(h), 1e-300)
@@ -901,7 +886,7 @@ def _circle_bridge(beta1, gap, t1, t2, R):
             return rho * (cy * cy * np.sin(p) - cy * rho * (p + 0.5 * np.sin(2 * p))
                           + rho * rho * (np.sin(p) - np.sin(p) ** 3 / 3.0))
 
-        vol = np.pi * (G(psi2) - G(psi1)) - _cap_volume(1.0, beta1) - _cap_volume(R, beta2)
+        vol = np.pi * (G(psi2) - G(psi1)) - cap_volume(1.0, beta1) - cap_volume(R, beta2)
         pm = 0.5 * (psi1 + psi2)
         ym = cy - rho * np.cos(pm)
         h = 0.5 * (np.cos(pm) / ym - 1.0 / rho)
