@@ -23,10 +23,15 @@ def _json_value(v):
 
 
 def cmd_solve_doublet(args):
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.generator.young_laplace import solve_doublet, solve_doublet_suction
 
-    r = solve_doublet(args.d, args.V, args.theta, args.ratio, args.theta2)
-    out = {"d": args.d, "V": args.V, "theta": args.theta, "theta2": args.theta2 or args.theta,
+    if (args.V is None) == (args.P is None):
+        raise CapbridgeInputError("give exactly one of --V (volume control) or --P (suction control)")
+    if args.V is not None:
+        r = solve_doublet(args.d, args.V, args.theta, args.ratio, args.theta2)
+    else:
+        r = solve_doublet_suction(args.d, args.P, args.theta, args.ratio, args.theta2)
+    out = {"d": args.d, "V": r["volume"], "theta": args.theta, "theta2": args.theta2 or args.theta,
            "ratio": args.ratio, "F": r["force"], "P": r["pressure"], "beta1": r["beta1"],
            "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
            "energy": r["energy"], "status": status_name(r["status"]),
@@ -146,7 +151,9 @@ def build_parser():
     solve = sub.add_parser("solve", help="exact solvers").add_subparsers(dest="what", required=True)
     sd = solve.add_parser("doublet", help="exact Young-Laplace bridge between two spheres (JSON out)")
     sd.add_argument("--d", type=float, required=True, help="gap d* = d/R1")
-    sd.add_argument("--V", type=float, required=True, help="volume V* = V/R1^3")
+    sd.add_argument("--V", type=float, default=None, help="volume V* = V/R1^3 (volume control)")
+    sd.add_argument("--P", type=float, default=None,
+                    help="pressure P* = dp R1/gamma, negative for suction (suction control)")
     sd.add_argument("--theta", type=float, required=True, help="contact angle [deg]")
     sd.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
     sd.add_argument("--ratio", type=float, default=1.0, help="R2/R1 >= 1")

@@ -96,3 +96,14 @@ def test_entry_point_runs():
     done = subprocess.run(exe, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout)["status"] == "converged"
+
+
+def test_solve_doublet_suction_control(capsys):
+    code, out, _ = run(["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30"], capsys)
+    vol = json.loads(out)
+    code, out, _ = run(["solve", "doublet", "--d", "0.1", "--P", str(vol["P"]), "--theta", "30"], capsys)
+    sx = json.loads(out)
+    assert code == 0 and sx["status"] == "converged"
+    assert sx["V"] == pytest.approx(0.05, rel=1e-8) and sx["F"] == pytest.approx(vol["F"], rel=1e-8)
+    code, _, err = run(["solve", "doublet", "--d", "0.1", "--theta", "30"], capsys)
+    assert code != 0 and "exactly one of --V" in err

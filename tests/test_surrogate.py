@@ -130,3 +130,15 @@ def test_si_api_matches_dimensionless(surrogate):
     assert a["pressure"] == pytest.approx(star["pressure"] * gamma / 1e-3, rel=1e-12)
     with pytest.raises(CapbridgeInputError, match="radius1"):
         surrogate.predict_si(-1e-3, 1e-3, gamma, d, vol, 30.0)
+
+
+def test_table_rupture_rows_resolve_exactly(table):
+    """The stored rupture distances (s = 0 rows) re-solved now agree to 1e-6."""
+    from capbridge.generator.young_laplace import rupture_distance
+
+    rng = np.random.default_rng(8)
+    st = table.stack(p=("ratio", "theta", "volume"))
+    pts = st.isel(p=rng.choice(st.sizes["p"], 12, replace=False))
+    r = rupture_distance(pts["volume"].values, pts["theta"].values, pts["ratio"].values)
+    assert (r["status"] == Status.CONVERGED).all()
+    np.testing.assert_allclose(r["gap"], pts["rupture_gap"].values, rtol=1e-6)
