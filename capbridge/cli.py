@@ -144,6 +144,89 @@ def cmd_demo(args):
     return run_demo(args.table, args.output_dir)
 
 
+def cmd_coalescence(args):
+    from capbridge.generator.triplet import (CRITERIA, find_coalescence, parse_bridges,
+                                             triplet_geometry)
+
+    bridges = parse_bridges(args.bridges)
+    theta = [args.theta,
+             args.theta if args.theta2 is None else args.theta2,
+             args.theta if args.theta3 is None else args.theta3]
+    fractions = None
+    if args.fractions:
+        try:
+            fractions = [float(x) for x in args.fractions.split(",")]
+        except ValueError:
+            raise CapbridgeInputError(f"--fractions {args.fractions!r}: give numbers "
+                                      "separated by commas, one per bridge") from None
+    geom = triplet_geometry(args.d12, args.d13, args.d23)
+    r = find_coalescence(geom, theta, bridges, fractions, v_max=args.v_max)
+    out = {"V_coal": r.V_coal, "criterion": r.criterion,
+           "criterion_description": CRITERIA.get(r.criterion, ""), "where": r.where,
+           "status": r.status,
+           "V_coal_per_bridge": {f"{i + 1}{j + 1}": r.V_coal * w
+                                 for (i, j), w in zip(r.bridges, r.fractions)},
+           "beta": r.beta, "opening_angle": r.opening_angles,
+           "alpha": {g: a / 2 for g, a in r.opening_angles.items()},
+           "F_bridge": r.forces, "P_bridge": r.pressure,
+           "grain_forces": r.grain_forces, "energy_uncoalesced": r.energy,
+           "criteria": [{"criterion": c["criterion"], "where": c["where"], "V_coal": c["V"]}
+                        for c in r.criteria],
+           "inputs": {"d12": args.d12, "d13": args.d13, "d23": args.d23, "theta": theta,
+                      "bridges": [f"{i + 1}{j + 1}" for i, j in r.bridges],
+                      "fractions": r.fractions},
+           "units": "V_coal: total liquid volume V/r^3 (all bridges); angles in degrees "
+                    "(beta: half filling angle on each grain; opening_angle: angle at a shared "
+                    "grain between the centre lines; alpha = half of it); F* = F/(2 pi gamma r), "
+                    "attraction > 0; energies E* = (A_lg - cos(theta) A_wet)/r^2"}
+    if args.radius is not None and np.isfinite(r.V_coal):
+        out["V_coal_ul"] = r.V_coal * (args.radius * 1e3) ** 3
+        out["radius_m"] = args.radius
+    if args.energy:
+        from capbridge.generator.triplet_evolver import energy_comparison
+
+        if not np.isfinite(r.V_coal):
+            out["energy"] = {"error": "no coalescence volume to compare around"}
+        else:
+            fr = [float(x) for x in args.energy_fractions.split(",")]
+            e = energy_comparison(geom, theta, [r.V_coal * f for f in fr], bridges, fractions,
+                                  max_refine=args.max_refine)
+            out["energy"] = {"V_cross": e["crossing"], "note": e["crossing_note"],
+                             "volumes": e["volume"], "E_uncoalesced": e["E_uncoalesced"],
+                             "E_coalesced": e["E_coalesced"],
+                             "E_coalesced_error": e["E_coalesced_error"],
+                             "coalesced_status": e["coalesced_status"],
+                             "method": "coalesced: Surface Evolver (Richardson-extrapolated "
+                                       f"energy, max refinement {args.max_refine}); separate "
+                                       "bridges: exact doublets"}
+    print(json.dumps(_json_tree(out), indent=1))
+    return 0 if r.status == "coalescence" else 3
+
+
+def _json_tree(x):
+    if isinstance(x, dict):
+        return {str(k): _json_tree(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_json_tree(v) for v in x]
+    return _json_value(x)
+
+
+def cmd_reproduce(args):
+    from capbridge.reproduce import miot2021
+
+    if args.study != "miot2021":   # argparse choices already refuse others
+        raise CapbridgeInputError(f"unknown study {args.study!r}")
+    ck = args.checkpoint_dir
+    if ck is None and not args.quick:
+        ck = ".sweep-checkpoints/miot2021"
+    s = miot2021.run(args.output_dir, quick=args.quick, checkpoint_dir=ck,
+                     progress=not args.no_progress, max_refine=args.max_refine)
+    print(json.dumps({"output_dir": args.output_dir, "files": s.get("files", []),
+                      "claims": str(Path(args.output_dir) / "CLAIMS.md"),
+                      "timings_s": s.get("timings_s", {})}, indent=1))
+    return 0
+
+
 def build_parser():
     p = argparse.ArgumentParser(prog="capbridge", description=__doc__)
     sub = p.add_subparsers(dest="command_name", required=True)
@@ -196,6 +279,40 @@ def build_parser():
     demo.add_argument("--table", default=str(DEFAULT_TABLE))
     demo.add_argument("--output-dir", default="out")
     demo.set_defaults(func=cmd_demo)
+
+    co = sub.add_parser("coalescence", help="volume at which separate bridges in a triplet of "
+                        "equal spheres coalesce (exact shapes; JSON out)")
+    co.add_argument("--d12", type=float, required=True, help="gap between grains 1 and 2, d/r")
+    co.add_argument("--d13", type=float, required=True, help="gap between grains 1 and 3, d/r")
+    co.add_argument("--d23", type=float, required=True, help="gap between grains 2 and 3, d/r")
+    co.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
+    co.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
+    co.add_argument("--theta3", type=float, default=None, help="contact angle on grain 3 [deg]")
+    co.add_argument("--bridges", default="12,13",
+                    help="bridge layout: grain pairs, e.g. 12,13 (default) or 12,13,23")
+    co.add_argument("--fractions", default=None,
+                    help="share of the total volume held by each bridge, e.g. 0.5,0.5 (default equal)")
+    co.add_argument("--v-max", type=float, default=2.5, help="largest total V* searched")
+    co.add_argument("--radius", type=float, default=None,
+                    help="grain radius [m]: also report V_coal in ul")
+    co.add_argument("--energy", action="store_true",
+                    help="also compare the energy of one coalesced body (Surface Evolver) with "
+                         "the separate bridges and report where they cross (slow)")
+    co.add_argument("--energy-fractions", default="0.6,0.8,1.0,1.2",
+                    help="volumes of the energy comparison, as fractions of V_coal")
+    co.add_argument("--max-refine", type=int, default=3, help="Evolver refinement level (--energy)")
+    co.set_defaults(func=cmd_coalescence)
+
+    rep = sub.add_parser("reproduce", help="reproduce a published study (figures, CSV, claims table)")
+    rep.add_argument("study", choices=["miot2021"])
+    rep.add_argument("--quick", action="store_true", help="a handful of points, coarse meshes")
+    rep.add_argument("--output-dir", default="examples/miot2021")
+    rep.add_argument("--checkpoint-dir", default=None,
+                     help="resumable Evolver checkpoints (default .sweep-checkpoints/miot2021 "
+                          "for the full run, none with --quick)")
+    rep.add_argument("--max-refine", type=int, default=None, help="Evolver refinement level")
+    rep.add_argument("--no-progress", action="store_true")
+    rep.set_defaults(func=cmd_reproduce)
     return p
 
 

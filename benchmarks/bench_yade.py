@@ -1,0 +1,356 @@
+"""ms per step of YADE scenes: dry, YADE's native capillary law, capbridge's engine.
+
+    .venv/bin/python benchmarks/bench_yade.py [--sizes 1000 10000] [--rounds 3]
+
+One run times every variant on the same settled packing (generated once, dry, under
+gravity, and cached in ``out/bench_yade/``), each in a fresh YADE process (one thread),
+in rounds: round k runs every variant once, so all variants share the machine's state;
+the figure is the median over the rounds.  Variants:
+
+``dry``          FrictPhys + Cundall-Strack, no liquid.
+``law2``         YADE's ``Law2_ScGeom_CapillaryPhys_Capillarity`` fed with capbridge's
+                 exported ``M(r=...)`` files (exact solver, theta = 30 deg), suction
+                 chosen so that bridges at contact hold about the volume of the
+                 capbridge variants; detection range enlarged to cover rupture
+                 (YADE needs interactions beyond contact).
+``native``       capbridge's fixed-volume bridges (V* per bridge) through YADE's compiled
+                 Law2 (:class:`capbridge.dem_plugin.native_volume.NativeVolumeBridges`).
+``capbridge``    :class:`capbridge.dem_plugin.engine.CapbridgeEngine`, volume-controlled
+                 bridges (fixed V* per bridge, same theta), refresh every step.
+``capbridge10``  the same, bridges and forces refreshed every 10 steps.
+``capeng``       YADE's ``CapillarityEngine`` in volume mode (imposePressure=False) on
+                 capbridge's exported Delaunay file: the compiled alternative for
+                 volume control (forces only; it forms no new bridge by itself).
+
+Prints a markdown section (command, machine, table); ``--write`` also writes it to
+``benchmarks/RESULTS_yade.md``.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+CACHE = ROOT / "out" / "bench_yade"
+THETA = 30.0
+GAMMA = 0.073
+R_SMALL, R_LARGE = 0.9e-3, 1.125e-3     # bidisperse, 50/50 by number: ratio 1.25
+R_MEAN = 0.5 * (R_SMALL + R_LARGE)
+VSTAR = 0.02          # volume of a capbridge bridge, V / r_small^3
+VARIANTS = ("dry", "law2", "native", "capbridge", "capbridge10", "capeng")
+
+
+# --------------------------------------------------------------------------------------
+# Inside YADE
+# --------------------------------------------------------------------------------------
+
+def _yade_env():
+    from capbridge.dem_plugin import yade_runtime
+    yade_runtime.ensure_yade_importable()
+    import yade  # noqa: F401
+    from yade import wrapper, utils
+    return yade, wrapper, utils
+
+
+def make_packing(n, out, max_steps=25000):
+    """Dry deposition of n spheres (half 0.9 mm, half 1.125 mm) in a box; saves positions."""
+    yade, w, utils = _yade_env()
+    from yade import pack
+
+    O = yade.Omega()
+    v_grains = n / 2 * 4 / 3 * np.pi * (R_SMALL**3 + R_LARGE**3)
+    side = (v_grains / 0.6) ** (1 / 3)
+    sp = pack.SpherePack()
+    sp.makeCloud((0, 0, 0), (side, side, 2.2 * side), rMean=R_LARGE, rRelFuzz=0, num=n // 2, seed=1)
+    sp.makeCloud((0, 0, 0), (side, side, 2.2 * side), rMean=R_SMALL, rRelFuzz=0,
+                 num=n - n // 2, seed=2)
+    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
+    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 2.2 * side)], thickness=0, material=mat))
+    sp.toSimulation(material=mat)
+    if len(sp) != n:
+        raise RuntimeError(f"makeCloud placed {len(sp)} of {n} spheres")
+    O.engines = [w.ForceResetter(), w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
+                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
+                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
+                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
+                 w.NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    t0 = time.time()
+    while O.iter < max_steps:
+        O.run(500, True)
+        if O.iter > 5000 and utils.unbalancedForce() < 0.05:
+            break
+    sph = [b for b in O.bodies if isinstance(b.shape, w.Sphere)]
+    pos = np.array([tuple(b.state.pos) for b in sph])
+    rad = np.array([b.shape.radius for b in sph])
+    np.savez(out, pos=pos, rad=rad, side=side, iters=O.iter, seconds=time.time() - t0,
+             unbalanced=utils.unbalancedForce())
+    print(json.dumps({"n": len(sph), "iters": O.iter, "seconds": time.time() - t0}))
+
+
+def run_variant(variant, packing, files, steps, warmup, suction, factor):
+    """Time one variant; prints the result line."""
+    yade, w, utils = _yade_env()
+    from capbridge.dem_plugin import yade_runtime
+    from capbridge.dem_plugin.engine import CapbridgeEngine
+
+    O = yade.Omega()
+    d = np.load(packing)
+    side = float(d["side"])
+    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
+    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 2.2 * side)], thickness=0, material=mat))
+    for p, r in zip(d["pos"], d["rad"]):
+        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    f = 1.0
+    extra = []
+    cap = None
+    ip2 = w.Ip2_FrictMat_FrictMat_FrictPhys()
+    law = w.Law2_ScGeom_FrictPhys_CundallStrack()
+    if variant == "law2":
+        f = factor
+        ip2 = w.Ip2_FrictMat_FrictMat_CapillaryPhys()
+        law = w.Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)
+        os.chdir(files)
+        extra = [w.Law2_ScGeom_CapillaryPhys_Capillarity(
+            capillaryPressure=suction, surfaceTension=GAMMA, suffCapFiles="_theta30", label="cap")]
+    elif variant == "capeng":
+        f = factor
+        ip2 = w.Ip2_FrictMat_FrictMat_CapillaryPhysDelaunay()
+        law = w.Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)
+        os.chdir(files)
+        extra = [w.CapillarityEngine(inputFilename="capillaryfile_theta30.txt",
+                                     capillaryPressure=suction, liquidTension=GAMMA,
+                                     imposePressure=False, totalVolumeConstant=False,
+                                     interactionDetectionFactor=f, label="cap")]
+    elif variant == "native":
+        from capbridge.dem_plugin.native_volume import NativeVolumeBridges
+
+        nb = NativeVolumeBridges(Path(files).parent / "native_files", THETA, d["rad"],
+                                 bridge_volume_star=VSTAR, gamma=GAMMA)
+        f = nb.detection_factor
+        ip2 = w.Ip2_FrictMat_FrictMat_CapillaryPhys()
+        law = w.Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)
+        extra = [nb.law2()]
+    elif variant.startswith("capbridge"):
+        every = int(variant[len("capbridge"):] or 1)
+        cap = CapbridgeEngine(theta=THETA, gamma=GAMMA, bridge_volume_star=VSTAR,
+                              refresh_every=every, coalescence_every=100, label="bench")
+        extra = [cap.pyrunner()]
+    elif variant != "dry":
+        raise SystemExit(f"unknown variant {variant}")
+    O.engines = ([w.ForceResetter(),
+                  w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=f), w.Bo1_Box_Aabb()]),
+                  w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=f),
+                                     w.Ig2_Box_Sphere_ScGeom()], [ip2], [law])]
+                 + extra + [w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))])
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    O.run(warmup, True)
+    if cap is not None:
+        t_eng0, n_eng0 = cap.timings["seconds"], cap.timings["steps"]
+        c_eng0, p_eng0 = cap.timings["cpu_seconds"], cap.timings.get("perm_updates", 0)
+    t0, c0 = time.perf_counter(), time.process_time()
+    O.run(steps, True)
+    ms = (time.perf_counter() - t0) / steps * 1e3
+    cpu_ms = (time.process_time() - c0) / steps * 1e3
+    out = {"variant": variant, "n": int(len(d["rad"])), "ms_per_step": cpu_ms,
+           "wall_ms_per_step": ms, "steps": steps,
+           "real_interactions": int(O.interactions.countReal()),
+           "all_interactions": int(len(O.interactions)), "detection_factor": f}
+    if cap is not None:
+        st = cap.state()
+        out.update(bridges=st["n_bridges"], engine_wall_ms_per_call=(cap.timings["seconds"] - t_eng0)
+                   / max(cap.timings["steps"] - n_eng0, 1) * 1e3,
+                   engine_cpu_ms_per_call=(cap.timings["cpu_seconds"] - c_eng0)
+                   / max(cap.timings["steps"] - n_eng0, 1) * 1e3,
+                   perm_updates_per_call=(cap.timings.get("perm_updates", 0) - p_eng0)
+                   / max(cap.timings["steps"] - n_eng0, 1),
+                   coalescence=st["coalescence"], verlet_rebuilds=st["verlet_rebuilds"],
+                   budget_error=st["budget"]["balance_error"])
+    elif variant in ("law2", "capeng", "native"):
+        nm, vol = 0, 0.0
+        for i in O.interactions:
+            if i.isReal and i.phys.meniscus:
+                nm += 1
+                vol += i.phys.vMeniscus
+        out.update(bridges=nm, mean_vstar_rmean=vol / max(nm, 1) / R_MEAN**3)
+    yade_runtime.emit_result(out)
+
+
+# --------------------------------------------------------------------------------------
+# Driver
+# --------------------------------------------------------------------------------------
+
+def ensure_packing(n):
+    CACHE.mkdir(parents=True, exist_ok=True)
+    path = CACHE / f"packing_{n}.npz"
+    if not path.exists():
+        print(f"# making the {n}-grain packing (once, cached in {path})", file=sys.stderr)
+        subprocess.run([sys.executable, __file__, "--make-packing", str(n), str(path)],
+                       check=True, env=_env())
+    return path
+
+
+def ensure_files():
+    """capbridge's export for theta = 30 deg (exact solver), cached."""
+    from capbridge.dem_plugin import yade_export as ye
+
+    d = CACHE / "files_theta30"
+    if not (d / "capillaryfile_theta30.txt").exists():
+        print("# exporting capbridge's suction tables for YADE (once)", file=sys.stderr)
+        suctions = np.concatenate([[0.0], np.geomspace(0.05, 50.0, 23)])
+        ye.export_from_solver(d, THETA, suctions=suctions, n_gaps=41)
+    return d
+
+
+def choose_suction():
+    """Suction [Pa] whose contact bridge between mean grains holds V* = VSTAR, and the
+    detection factor covering the largest rupture gap at that suction."""
+    from capbridge.generator.young_laplace import solve_doublet, suction_rupture_distance
+    from scipy.optimize import brentq
+
+    p = solve_doublet(0.0, VSTAR, THETA)["pressure"]          # P* < 0: suction = -P*
+    s_star = -float(p)
+    suction = s_star * GAMMA / R_MEAN
+    r_min, r_max = R_SMALL, R_LARGE
+    # largest rupture gap / (R1 + R2) over the pairs of the packing (smallest grains)
+    worst = 0.0
+    for r1, r2 in ((r_min, r_min), (r_min, r_max), (r_max, r_max)):
+        g = suction_rupture_distance(-suction * r1 / GAMMA, THETA, ratio=r2 / r1)["gap"]
+        worst = max(worst, float(g) * r1 / (r1 + r2))
+    return suction, 1.0 + 1.2 * worst, s_star
+
+
+def _env():
+    env = dict(os.environ)
+    env["OMP_NUM_THREADS"] = "1"
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    return env
+
+
+def run_one(variant, packing, files, steps, warmup, suction, factor, timeout=3600):
+    from capbridge.dem_plugin import yade_runtime as yr
+
+    args = ["--run-variant", variant, str(packing), str(files), str(steps), str(warmup),
+            repr(suction), repr(factor)]
+    return yr.run_yade_script(__file__, args, timeout=timeout).result
+
+
+def machine():
+    cpu = "unknown"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    from capbridge.dem_plugin import yade_runtime as yr
+    inst = yr.find_yade()
+    load = os.getloadavg()
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),
+            "numpy": np.__version__, "yade": inst.version if inst else None,
+            "load_before": [round(x, 2) for x in load]}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000])
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS))
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--steps", type=int, nargs="+", default=None,
+                    help="timed steps per size (default 1000 for <= 2000 grains, 200 above)")
+    ap.add_argument("--write", action="store_true", help="write benchmarks/RESULTS_yade.md")
+    ap.add_argument("--json", default=None, help="also dump the raw results here")
+    a = ap.parse_args(argv)
+    mach = machine()
+    suction, factor, s_star = choose_suction()
+    files = ensure_files() if any(v in ("law2", "capeng") for v in a.variants) else CACHE
+    results = {}
+    t_start = time.time()
+    for k, n in enumerate(a.sizes):
+        packing = ensure_packing(n)
+        steps = a.steps[k] if a.steps else (1000 if n <= 2000 else 200)
+        warmup = max(50, steps // 5)
+        for rnd in range(a.rounds):
+            for v in a.variants:
+                res = run_one(v, packing, files, steps, warmup, suction, factor)
+                results.setdefault((n, v), []).append(res)
+                print(f"# n={n} round {rnd} {v}: {res['ms_per_step']:.3f} ms/step", file=sys.stderr)
+    mach["load_after"] = [round(x, 2) for x in os.getloadavg()]
+    text = report(a, mach, results, suction, factor, s_star, time.time() - t_start)
+    print(text)
+    if a.write:
+        (ROOT / "benchmarks" / "RESULTS_yade.md").write_text(text)
+    if a.json:
+        Path(a.json).write_text(json.dumps({f"{n}:{v}": r for (n, v), r in results.items()}, indent=1))
+    return 0
+
+
+def report(a, mach, results, suction, factor, s_star, seconds):
+    date = _dt.date.today().isoformat()
+    lines = [f"### YADE: ms per step, dry / native capillary law / capbridge engine ({date})", "",
+             "Command: `.venv/bin/python benchmarks/bench_yade.py " + " ".join(
+                 sys.argv[1:]).replace("--write", "").strip() + "`; machine: "
+             f"{mach['cpu']}, {mach['cores']} cores, one YADE thread per process "
+             f"(OMP_NUM_THREADS=1), YADE {mach['yade']}, Python {mach['python']}, numpy "
+             f"{mach['numpy']}; load average {mach['load_before'][0]} before, "
+             f"{mach['load_after'][0]} after (other jobs shared the machine); "
+             f"{a.rounds} rounds, every variant once per round, median shown; whole run "
+             f"{seconds / 60:.1f} min.", "",
+             f"Packings: bidisperse spheres, half R = {R_SMALL * 1e3:g} mm, half "
+             f"{R_LARGE * 1e3:g} mm (ratio {R_LARGE / R_SMALL:g}, one of YADE's file ratios), "
+             "dry deposition under "
+             "gravity in a box, then every variant starts from the same positions "
+             "(gravity on, damping 0.4, dt = 0.5 x P-wave step). Liquid: theta = "
+             f"{THETA:g} deg; capbridge bridges V* = {VSTAR:g} (fixed volume per bridge, "
+             f"by the smaller radius); YADE's Law2 at suction {suction:.1f} Pa (s* = "
+             f"{s_star:.3f}: V* = {VSTAR:g} at contact for two mean grains), detection "
+             f"factor {factor:.3f} (covers its rupture distance).", "",
+             "| grains | variant | ms/step | vs dry | vs native Law2 | bridges | real interactions |",
+             "|---:|---|---:|---:|---:|---:|---:|"]
+    names = {"dry": "dry (no liquid)", "law2": "YADE Law2_ScGeom_CapillaryPhys_Capillarity + capbridge files",
+             "native": "capbridge fixed-volume bridges through YADE's Law2 (native)",
+             "capbridge": "capbridge engine, volume-controlled, refresh every step",
+             "capbridge10": "capbridge engine, refresh every 10 steps",
+             "capeng": "YADE CapillarityEngine, volume mode, capbridge file"}
+    for n in a.sizes:
+        med = {v: statistics.median(r["ms_per_step"] for r in results[(n, v)])
+               for v in a.variants if (n, v) in results}
+        for v in a.variants:
+            if v not in med:
+                continue
+            last = results[(n, v)][-1]
+            vs_dry = med[v] / med["dry"] if "dry" in med else float("nan")
+            vs_law = med[v] / med["law2"] if "law2" in med else float("nan")
+            lines.append(f"| {n:,} | {names[v]} | {med[v]:.2f} | {vs_dry:.2f} | {vs_law:.2f} | "
+                         f"{last.get('bridges', 0):,} | {last['real_interactions']:,} |")
+    lines += ["", "All rounds (ms per step, CPU time of the YADE process, then wall clock):", ""]
+    for (n, v), rs in sorted(results.items()):
+        extra = ""
+        if v.startswith("capbridge"):
+            extra = (f"; engine {statistics.median(r['engine_cpu_ms_per_call'] for r in rs):.3f} "
+                     f"ms CPU per call, {rs[-1]['perm_updates_per_call']:.1f} grains' forces "
+                     "handed to YADE per call")
+        lines.append(f"- {n:,} {v}: CPU " + ", ".join(f"{r['ms_per_step']:.3f}" for r in rs)
+                     + "; wall " + ", ".join(f"{r['wall_ms_per_step']:.3f}" for r in rs) + extra)
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--make-packing":
+        make_packing(int(sys.argv[2]), sys.argv[3])
+    elif len(sys.argv) > 1 and sys.argv[1] == "--run-variant":
+        v, packing, files, steps, warmup, suction, factor = sys.argv[2:9]
+        run_variant(v, packing, files, int(steps), int(warmup), float(suction), float(factor))
+    else:
+        sys.exit(main())
