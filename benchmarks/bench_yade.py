@@ -216,7 +216,6 @@ def choose_suction():
     """Suction [Pa] whose contact bridge between mean grains holds V* = VSTAR, and the
     detection factor covering the largest rupture gap at that suction."""
     from capbridge.generator.young_laplace import solve_doublet, suction_rupture_distance
-    from scipy.optimize import brentq
 
     p = solve_doublet(0.0, VSTAR, THETA)["pressure"]          # P* < 0: suction = -P*
     s_star = -float(p)
@@ -271,7 +270,21 @@ def main(argv=None):
                     help="timed steps per size (default 1000 for <= 2000 grains, 200 above)")
     ap.add_argument("--write", action="store_true", help="write benchmarks/RESULTS_yade.md")
     ap.add_argument("--json", default=None, help="also dump the raw results here")
+    ap.add_argument("--from-json", default=None,
+                    help="re-write the report from a --json dump of an earlier run (no run)")
     a = ap.parse_args(argv)
+    if a.from_json:
+        doc = json.loads(Path(a.from_json).read_text())
+        results = {(int(k.split(":")[0]), k.split(":")[1]): v for k, v in doc["results"].items()}
+        a.sizes = sorted({n for n, _ in results})
+        a.variants = [v for v in VARIANTS if any(k[1] == v for k in results)]
+        a.rounds = max(len(v) for v in results.values())
+        text = report(a, doc["machine"], results, doc["suction"], doc["factor"], doc["s_star"],
+                      doc["seconds"], doc["command"])
+        print(text)
+        if a.write:
+            (ROOT / "benchmarks" / "RESULTS_yade.md").write_text(text)
+        return 0
     mach = machine()
     suction, factor, s_star = choose_suction()
     files = ensure_files() if any(v in ("law2", "capeng") for v in a.variants) else CACHE
@@ -287,20 +300,47 @@ def main(argv=None):
                 results.setdefault((n, v), []).append(res)
                 print(f"# n={n} round {rnd} {v}: {res['ms_per_step']:.3f} ms/step", file=sys.stderr)
     mach["load_after"] = [round(x, 2) for x in os.getloadavg()]
-    text = report(a, mach, results, suction, factor, s_star, time.time() - t_start)
+    command = " ".join(sys.argv[1:]).replace("--write", "").strip()
+    seconds = time.time() - t_start
+    text = report(a, mach, results, suction, factor, s_star, seconds, command)
     print(text)
     if a.write:
         (ROOT / "benchmarks" / "RESULTS_yade.md").write_text(text)
     if a.json:
-        Path(a.json).write_text(json.dumps({f"{n}:{v}": r for (n, v), r in results.items()}, indent=1))
+        Path(a.json).write_text(json.dumps(
+            {"machine": mach, "suction": suction, "factor": factor, "s_star": s_star,
+             "seconds": seconds, "command": command,
+             "results": {f"{n}:{v}": r for (n, v), r in results.items()}}, indent=1))
     return 0
 
 
-def report(a, mach, results, suction, factor, s_star, seconds):
+NOTES = """Notes on this run:
+- Target, capbridge's path for doublets <= 1.5x YADE's native capillary law on the same
+  scene: met by the native fixed-volume path (capbridge's volume-controlled bridges in
+  YADE's compiled Law2, 1.26x / 1.30x: it needs the detection range to cover the
+  rupture distance of volume-controlled bridges, ~1.6x the interactions of the suction
+  run), by CapbridgeEngine at 10,000 grains (0.91x) and by CapbridgeEngine refreshing
+  every 10 steps at both sizes (0.82x / 0.58x); not by CapbridgeEngine refreshing every
+  step at 1,000 grains (1.74x): its fixed cost per call (PyRunner, ~40 numpy calls,
+  one bulk position read; ~0.3 ms) weighs on small scenes, its cost per bridge
+  (~0.3 us CPU) is below Law2's on large ones.
+- CapbridgeEngine's defaults (refresh every step, force_tolerance 1e-3: a grain's force
+  is handed to YADE only when a bridge force on it moved by > 0.1 %) hand ~30-50 grain
+  forces per step to YADE here instead of every wet grain's.
+- YADE's CapillarityEngine in volume mode (the compiled alternative for volume control)
+  costs 1.5x Law2 and holds about half the bridges: in volume mode it gives no volume
+  to bridges formed after its first step (Python would have to), and its stale
+  tetrahedron cache made a two-sphere lookup hang (> 400 s, killed) where the
+  colleague's workaround (re-created interaction) took 13 s; not used.
+- Accuracy of the same paths (tests/test_yade_engine.py): CapbridgeEngine = capbridge's
+  lookup to 1e-9 (forces not held) or 0.1 % (held) along a pull-apart to rupture; the
+  native fixed-volume files within 0.05 %; zero past rupture for both."""
+
+
+def report(a, mach, results, suction, factor, s_star, seconds, command):
     date = _dt.date.today().isoformat()
     lines = [f"### YADE: ms per step, dry / native capillary law / capbridge engine ({date})", "",
-             "Command: `.venv/bin/python benchmarks/bench_yade.py " + " ".join(
-                 sys.argv[1:]).replace("--write", "").strip() + "`; machine: "
+             "Command: `.venv/bin/python benchmarks/bench_yade.py " + command + "`; machine: "
              f"{mach['cpu']}, {mach['cores']} cores, one YADE thread per process "
              f"(OMP_NUM_THREADS=1), YADE {mach['yade']}, Python {mach['python']}, numpy "
              f"{mach['numpy']}; load average {mach['load_before'][0]} before, "
@@ -309,9 +349,12 @@ def report(a, mach, results, suction, factor, s_star, seconds):
              f"{seconds / 60:.1f} min.", "",
              f"Packings: bidisperse spheres, half R = {R_SMALL * 1e3:g} mm, half "
              f"{R_LARGE * 1e3:g} mm (ratio {R_LARGE / R_SMALL:g}, one of YADE's file ratios), "
-             "dry deposition under "
-             "gravity in a box, then every variant starts from the same positions "
-             "(gravity on, damping 0.4, dt = 0.5 x P-wave step). Liquid: theta = "
+             "dropped in a box and deposited dry under gravity for 25,000 steps (still "
+             "moving: unbalanced force ~0.46, the top grains falling; bridges form all "
+             "along the timed steps), then every variant starts from the same positions "
+             "(gravity on, damping 0.4, dt = 0.5 x P-wave step). ms/step is the CPU time "
+             "of the YADE process per step (the machine was shared: wall-clock times, "
+             "listed below, were 4-8x longer and noisier). Liquid: theta = "
              f"{THETA:g} deg; capbridge bridges V* = {VSTAR:g} (fixed volume per bridge, "
              f"by the smaller radius); YADE's Law2 at suction {suction:.1f} Pa (s* = "
              f"{s_star:.3f}: V* = {VSTAR:g} at contact for two mean grains), detection "
@@ -334,7 +377,7 @@ def report(a, mach, results, suction, factor, s_star, seconds):
             vs_law = med[v] / med["law2"] if "law2" in med else float("nan")
             lines.append(f"| {n:,} | {names[v]} | {med[v]:.2f} | {vs_dry:.2f} | {vs_law:.2f} | "
                          f"{last.get('bridges', 0):,} | {last['real_interactions']:,} |")
-    lines += ["", "All rounds (ms per step, CPU time of the YADE process, then wall clock):", ""]
+    lines += ["", NOTES, "", "All rounds (ms per step, CPU time of the YADE process, then wall clock):", ""]
     for (n, v), rs in sorted(results.items()):
         extra = ""
         if v.startswith("capbridge"):

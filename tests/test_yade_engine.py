@@ -219,11 +219,15 @@ def test_triplet_coalescence_is_reported_never_silent():
 # --------------------------------------------------------------------------------------
 
 
-def test_minimal_scene_of_the_docs_runs_as_printed():
+@pytest.mark.parametrize("mode", ["python", "launcher"])
+def test_minimal_scene_of_the_docs_runs_as_printed(mode):
+    """The scene printed in docs/yade_plugin.md, run with the venv's Python and through
+    ``yade -n -x`` (with capbridge and the venv's packages on PYTHONPATH, as the doc
+    says)."""
     scene = (SCENES / "minimal_capbridge_scene.py").read_text()
     doc = DOCS.read_text()
     assert scene.strip() in doc, "docs/yade_plugin.md must show the tested scene verbatim"
-    run = _run("minimal_capbridge_scene.py", require_result=False)
+    run = _run("minimal_capbridge_scene.py", require_result=False, mode=mode)
     out = run.stdout
     m = re.search(r"bridges: (\d+) formed: (\d+) ruptured: (\d+)", out)
     assert m and int(m.group(1)) > 50

@@ -381,9 +381,10 @@ class CapbridgeEngine:
         self._coal_summary = s
         self.coalescence_report = rep
         # a log line when merged bridges appear or vanish, or their number moves by 10 %
+        # (and by at least 2)
         last = self._coal_logged
         n = rep.n_triplets
-        if (n > 0) != (last > 0) or abs(n - last) > 0.1 * max(last, 1):
+        if (n > 0) != (last > 0) or abs(n - last) >= max(2.0, 0.1 * last):
             self._coal_logged = n
             self._say("warning", f"capbridge {self.label!r} iter {s['iter']}: {n} "
                       f"coalesced bridge pairs (triplets, {s['closed_triangles']} closed "

@@ -34,7 +34,6 @@ angles (one file set per engine), radius ratios between its ten ratio files (see
 """
 from __future__ import annotations
 
-import math
 import os
 import warnings
 from contextlib import contextmanager

@@ -25,7 +25,7 @@ yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import pack, utils  # noqa: E402
 from yade.utils import *  # noqa: E402,F401,F403
-import yade  # noqa: E402
+import yade  # noqa: E402,F401
 from yade import _utils  # noqa: E402
 
 from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
