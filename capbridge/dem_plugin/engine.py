@@ -51,9 +51,8 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import time
-from contextlib import contextmanager
+from contextlib import chdir  # YADE reads its capillary files from the working directory
 from pathlib import Path
 
 import numpy as np
@@ -452,16 +451,6 @@ class CapbridgeEngine:
 # ------------------------------------------------------------------------------------
 
 
-@contextmanager
-def _cwd(path):
-    old = os.getcwd()
-    os.chdir(path)
-    try:
-        yield
-    finally:
-        os.chdir(old)
-
-
 def suction_law2(directory, theta, suction, gamma=0.073, *, export_if_missing=True,
                  label="capillary", **export_kw):
     """YADE's ``Law2_ScGeom_CapillaryPhys_Capillarity`` reading capbridge's ``M(r=...)``
@@ -486,7 +475,7 @@ def suction_law2(directory, theta, suction, gamma=0.073, *, export_if_missing=Tr
             raise FileNotFoundError(f"capillary files {suffix} missing in {directory}")
         ye.export_from_solver(directory, theta, suffix=suffix, delaunay=False, **export_kw)
     _, wrapper = _yade()
-    with _cwd(directory):
+    with chdir(directory):
         return wrapper.Law2_ScGeom_CapillaryPhys_Capillarity(
             capillaryPressure=float(suction), surfaceTension=float(gamma),
             suffCapFiles=suffix, label=label)

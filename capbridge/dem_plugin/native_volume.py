@@ -34,9 +34,8 @@ angles (one file set per engine), radius ratios between its ten ratio files (see
 """
 from __future__ import annotations
 
-import os
 import warnings
-from contextlib import contextmanager
+from contextlib import chdir  # YADE reads its capillary files from the working directory
 from pathlib import Path
 
 import numpy as np
@@ -188,16 +187,6 @@ def _rupture_rows(sur_tab, theta, ratios, gaps, V, L, s_axis, lo, hi, n_iter=60)
     return out
 
 
-@contextmanager
-def _cwd(path):
-    old = os.getcwd()
-    os.chdir(path)
-    try:
-        yield
-    finally:
-        os.chdir(old)
-
-
 class NativeVolumeBridges:
     """Fixed-volume bridges through YADE's compiled Law2 (module docstring).
 
@@ -253,7 +242,7 @@ class NativeVolumeBridges:
         """The configured ``Law2_ScGeom_CapillaryPhys_Capillarity`` (reads the files now)."""
         from yade import wrapper
 
-        with _cwd(self.directory):
+        with chdir(self.directory):
             return wrapper.Law2_ScGeom_CapillaryPhys_Capillarity(
                 capillaryPressure=self.capillary_pressure, surfaceTension=self.gamma,
                 suffCapFiles=self.suffix, label=label)
