@@ -7,6 +7,7 @@ facets).  The precision reached at higher levels is measured by
 """
 from __future__ import annotations
 
+import importlib
 import os
 
 import numpy as np
@@ -240,3 +241,150 @@ def test_timeout_is_flagged():
     assert r.status == Status.NOT_CONVERGED
     assert "time" in r.reason
     assert not any(_evolver_children())
+
+
+# ----------------------------------------------------------------------------------------
+# fixes and additions of the validation/benchmark work (issue 3, parts 2 and 5)
+# ----------------------------------------------------------------------------------------
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_only_gravity_free_level_passed_is_flagged_not_raised(monkeypatch):
+    """With gravity, level 0 is relaxed without it; when every later level fails the
+    result assembly used to raise IndexError (no level with the problem's Bond number)."""
+    from capbridge.generator.evolver import checks
+    mod = importlib.import_module("capbridge.generator.evolver.minimise")
+
+    real = mod._Runner.level
+
+    def level(self, L, src, bond=None):
+        if L >= 1:
+            return None, None, [checks.Failure("fold", "forced for the test")], {}, "newton"
+        return real(self, L, src, bond)
+
+    monkeypatch.setattr(mod._Runner, "level", level)
+    pb = doublet_problem(0.1, 0.05, 30.0, bond=1.0)
+    for min_refine in (2, 0):      # 0: level 0 (no gravity) was then reported CONVERGED
+        r = minimise(pb, Settings(max_refine=2, min_refine=min_refine, workers=1))
+        assert r.status == Status.NOT_CONVERGED
+        assert "fold" in r.reason
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_driver_exception_is_flagged(monkeypatch):
+    mod = importlib.import_module("capbridge.generator.evolver.minimise")
+
+    def boom(R, res):
+        raise IndexError("simulated")
+
+    monkeypatch.setattr(mod, "_levels", boom)
+    r = minimise(doublet_problem(0.1, 0.05, 30.0), Settings(max_refine=1))
+    assert r.status == Status.NOT_CONVERGED and "driver error" in r.reason
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_single_vw_component_matches_full_and_masks_the_rest():
+    u = np.array([1.0, 0.0, 0.0])
+    F1, r1 = doublet_force(0.1, 0.05, 30.0, max_refine=2, vw_components=[(0, u)], workers=1)
+    F2, r2 = doublet_force(0.1, 0.05, 30.0, max_refine=2, workers=1)
+    assert r1.converged and r2.converged
+    assert r1.forces_vw[0] @ u == pytest.approx(r2.forces_vw[0] @ u, rel=1e-9)
+    assert np.all(np.isnan(r1.forces[1]))
+    with pytest.raises(CapbridgeInputError):
+        doublet_force(0.1, 0.05, 30.0, vw_components=[(0, u), (0, u)])
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_theta0_virtual_work_fine_mesh_settings_at_level4():
+    """theta = 0 on a fine mesh: a displacement of 0.005 (the default 0.01 capped at
+    gap/20) can push the meniscus out of its basin (indefinite Hessian, the surface folds
+    or creeps for 20 Newton steps).  The fine-mesh settings (delta 0.001, at most 0.05
+    edge lengths, abort at an indefinite Hessian) converge at once and stay exact."""
+    u = np.array([1.0, 0.0, 0.0])
+    F, r = doublet_force(0.1, 0.05, 0.0, max_refine=4, min_refine=4, vw_from_level=4,
+                         vw_components=[(1, -u)], workers=1, delta=0.001,
+                         vw_delta_edges=0.05, vw_abort_indefinite=True)
+    assert r.converged, r.reason
+    assert not any("smaller displacements" in w for w in r.warnings), r.warnings
+    ex = _exact(0.1, 0.05, 0.0)
+    assert r.forces_vw[1] @ (-u) == pytest.approx(float(ex["force"]), rel=5e-3)
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_paper_protocol_forward_difference():
+    from capbridge.generator.evolver.protocols import forward_difference_force
+
+    pb = doublet_problem(0.1, 0.05, 30.0)
+    r = forward_difference_force(pb, 1, [1.0, 0.0, 0.0], delta=0.06, n_refine=2,
+                                 ngrad_between=10, ngrad_after=100)
+    assert r.ok, r.reason
+    assert r.base.n_facets == 256 and r.base.checkpoints[-1, 0] == 100
+    yl = pytest.importorskip("capbridge.generator.young_laplace")
+    e0 = float(yl.solve_doublet(0.1, 0.05, 30.0)["energy"])
+    e1 = float(yl.solve_doublet(0.16, 0.05, 30.0)["energy"])
+    secant = (e1 - e0) / 0.06 / (2 * np.pi)
+    # attraction = -F_1 . u; the forward difference estimates the secant, not F(d)
+    assert -r.force == pytest.approx(secant, rel=0.03)
+    k, Fk = r.force_at()
+    assert k[-1] == 100 and Fk[-1] == pytest.approx(r.force)
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_evolver_dies_with_a_killed_python_parent(tmp_path):
+    """Evolver runs in its own session; killing the Python process that started it used
+    to leave it running (orphans of killed sweeps kept burning CPU for hours)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    write_datafile(mesh_problem(doublet_problem(0.1, 0.05, 30.0)), tmp_path / "a.fe")
+    code = ("from capbridge.generator.evolver import runner; "
+            f"runner.run_evolver('a.fe', 'g 100000000;\\nquit\\n', {str(tmp_path)!r}, "
+            "timeout=120)")
+    py = subprocess.Popen([sys.executable, "-c", code])
+    try:
+        child = None
+        for _ in range(200):
+            child = next(_evolver_children_of(py.pid), None)
+            if child:
+                break
+            time.sleep(0.05)
+        assert child, "evolver did not start"
+        py.send_signal(signal.SIGKILL)
+        py.wait()
+        for _ in range(100):
+            if not os.path.exists(f"/proc/{child}") or _is_zombie(child):
+                break
+            time.sleep(0.05)
+        assert not os.path.exists(f"/proc/{child}") or _is_zombie(child)
+    finally:
+        if py.poll() is None:
+            py.kill()
+
+
+def _evolver_children_of(ppid):
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open(f"/proc/{pid}/stat") as fh:
+                st = fh.read().split()
+        except OSError:
+            continue
+        if st[1] == "(evolver)" and int(st[3]) == ppid:
+            yield int(pid)
+
+
+def _is_zombie(pid):
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] == "Z"
+    except OSError:
+        return True

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from capbridge.status import Status
+from capbridge.validation import CapbridgeInputError
 
 from . import checks, forces, parse, runner, script
 from .datafile import mesh_problem, write_datafile
@@ -52,7 +53,21 @@ class Settings:
     groom: bool = True
     virtual_work: bool = True
     delta: float = 0.01           # virtual displacement (units of r)
+    vw_delta_edges: float = 0.0   # if > 0: delta at most this many mean edge lengths of
+                                  # the level (fine theta = 0 meshes: a large displacement
+                                  # can push the meniscus out of its basin)
+    vw_abort_indefinite: bool = False   # stop a displaced run at its first indefinite
+                                  # Hessian and redo it with delta/2 (off: hessian_seek
+                                  # copes with indefinite steps on coalesced bodies)
+    vw_ngrad: int = 0             # gradient steps before the Newton steps of a displaced
+                                  # run; > 0 makes the end state path-dependent (force
+                                  # sums off by 1e-2 at level 2), so 0 unless needed
     vw_from_level: int = 1        # first level at which virtual work is computed
+    vw_components: tuple | None = None   # ((grain, (ux, uy, uz)), ...): compute only these
+                                  # force components by virtual work (e.g. one grain of a
+                                  # doublet, the vertical force on one grain); the rows of
+                                  # ``forces`` of other grains are then NaN and a listed
+                                  # grain's row is its component times u
     level_timeout: float = 300.0  # seconds per Evolver run
     total_timeout: float = 3600.0
     workers: int | None = None    # Evolver processes at once (default min(2, cores))
@@ -132,6 +147,8 @@ class BridgeResult:
         if F is None or self.problem is None:
             return np.nan
         u = forces.doublet_axis(self.problem, i, j)
+        if np.all(np.isnan(F[i])):          # only grain j computed (vw_components)
+            return float(-F[j] @ u)
         return float(F[i] @ u)
 
     def summary(self):
@@ -166,6 +183,32 @@ def vw_directions(pb):
     if rank >= 3:
         return np.eye(3)
     return vt[:rank]
+
+
+def vw_component_list(pb, components):
+    """``Settings.vw_components`` checked: list of (grain, unit vector), or None (all).
+
+    A grain may appear once (one direction per grain: its row of ``forces`` is then the
+    component times the unit vector)."""
+    if components is None:
+        return None
+    out = []
+    seen = set()
+    wet = set(pb.wetted_grains())
+    for g, u in components:
+        g = int(g)
+        u = np.asarray(u, float)
+        if g not in wet:
+            raise ValueError(f"vw_components: grain {g} is not wetted")
+        if g in seen:
+            raise ValueError(f"vw_components: grain {g} listed twice")
+        if u.shape != (3,) or not np.linalg.norm(u) > 0:
+            raise ValueError("vw_components: directions must be non-zero 3-vectors")
+        seen.add(g)
+        out.append((g, u / np.linalg.norm(u)))
+    if not out:
+        raise ValueError("vw_components is empty")
+    return out
 
 
 def vw_delta(pb, delta):
@@ -316,13 +359,21 @@ class _Runner:
         displacement, up to ``halvings`` times; the failures returned are those left.
         """
         pb = self.mp.problem
-        dirs = vw_directions(pb)
+        comps = vw_component_list(pb, self.s.vw_components)
+        if comps is None:
+            dirs = vw_directions(pb)
+            pairs = [(g, d) for g in pb.wetted_grains() for d in range(len(dirs))]
+            dvec = {(g, d): dirs[d] for g, d in pairs}
+        else:
+            pairs = [(g, m) for m, (g, _) in enumerate(comps)]
+            dvec = {(g, m): u for m, (g, u) in enumerate(comps)}
 
         def job(item):
             g, d, sgn, dl = item
-            shift = sgn * dl * dirs[d]
+            shift = sgn * dl * dvec[(g, d)]
             cmd = script.displaced(g, shift, pb.n_grains, self.contact, self.outside,
-                                   maxhess=self.s.maxhess)
+                                   ngrad=self.s.vw_ngrad, maxhess=self.s.maxhess,
+                                   abort_indefinite=self.s.vw_abort_indefinite)
             out = self.run(f"L{L}.dmp", cmd, f"vw{L}-{g}-{d}-{sgn}")
             snap = None if out.timed_out else parse.parse_reports(out.stdout).get("moved")
             if snap is None:
@@ -331,13 +382,16 @@ class _Runner:
             mp2 = _with_problem(self.mp, pb.moved(g, shift))
             direct = forces.direct_forces(snap, mp2)
             fails, _ = checks.analyse(snap, mp2, self.s.tolerances, direct)
+            if snap.indefinite and self.s.vw_abort_indefinite:
+                fails.append(checks.Failure("newton", f"virtual-work run (grain {g + 1}): "
+                                                      "indefinite Hessian (displacement too "
+                                                      "large for this mesh)"))
             if (snap.newton_steps >= self.s.maxhess
                     and abs(snap.last_newton_de) > 1e3 * self.s.etol_newton):
                 fails.append(checks.Failure("newton", f"virtual-work run (grain {g + 1}) did "
                                                       "not converge"))
             return (snap.energy if not fails else np.nan), fails
 
-        pairs = [(g, d) for g in pb.wetted_grains() for d in range(len(dirs))]
         F = np.zeros((pb.n_grains, 3))
         todo = {pr: delta for pr in pairs}
         left = []
@@ -356,7 +410,7 @@ class _Runner:
                     retry[(g, d)] = dl / 2
                     continue
                 comp = -(E[(g, d, 1)] - E[(g, d, -1)]) / (2 * dl)
-                F[g] += comp * dirs[d] / (2 * np.pi)
+                F[g] += comp * dvec[(g, d)] / (2 * np.pi)
             if not retry:
                 return F, []
             left = [f for pr in retry for f in fails[pr]]
@@ -381,6 +435,10 @@ def minimise(problem, settings=None):
     """
     s = settings or Settings()
     t_start = time.monotonic()
+    try:
+        vw_component_list(problem, s.vw_components)
+    except ValueError as exc:
+        raise CapbridgeInputError(str(exc)) from None
     res = BridgeResult(status=Status.NOT_CONVERGED, reason="", problem=problem)
     if not runner.available():
         res.reason = "Surface Evolver ('evolver') is not installed"
@@ -397,6 +455,10 @@ def minimise(problem, settings=None):
         R = _Runner(mp, s, wd)
         try:
             _levels(R, res)
+        except Exception as exc:     # never let one problem crash a sweep: flag it
+            res.status = Status.NOT_CONVERGED
+            res.reason = f"driver error: {type(exc).__name__}: {exc}"
+            res.forces = None
         finally:
             res.cpu_time = R.cpu
             res.wall_time = time.monotonic() - t_start
@@ -465,7 +527,14 @@ def _levels(R, res):
                               "between levels (energy falling without bound?)")
                 break
         if s.virtual_work and L >= s.vw_from_level:
-            F, vfails = R.virtual_work(L, vw_delta(pb, s.delta))
+            cpu0 = R.cpu
+            delta = vw_delta(pb, s.delta)
+            h = rec.diagnostics.get("mean_edge", np.nan)
+            if s.vw_delta_edges and np.isfinite(h):
+                delta = min(delta, max(s.vw_delta_edges * h, 1e-5))
+            rec.diagnostics["vw_delta"] = delta
+            F, vfails = R.virtual_work(L, delta)
+            rec.diagnostics["vw_cpu"] = R.cpu - cpu0
             if vfails:
                 final_fail = f"level {L} virtual work: " + "; ".join(str(f) for f in vfails[:3])
                 break
@@ -473,12 +542,14 @@ def _levels(R, res):
                 res.warnings.append(f"level {L}: virtual work needed smaller displacements "
                                     f"for {R.vw_halved} grain-direction pair(s)")
             rec.forces_vw = F
+        rec.diagnostics["cpu_cumulative"] = R.cpu   # Evolver CPU of all runs so far
         records.append(rec)
         src = f"L{L}.dmp"
         if L >= s.min_refine and _converged(records, s, res):
             break
     res.levels = records
-    if not records or records[-1].level < s.min_refine:
+    with_gravity = [r for r in records if r.bond == pb.bond]   # level 0 runs without it
+    if not with_gravity or records[-1].level < s.min_refine:
         res.status = Status.NOT_CONVERGED
         res.reason = final_fail or "no level reached the minimum refinement"
         _fill(res, records, s)
@@ -554,6 +625,12 @@ def _fill(res, records, s):
     res.neck_radius = last.neck_radius
     pb = res.problem
     records = [r for r in records if r.bond == pb.bond]
+    if not records:
+        # only the gravity-free level 0 of a problem with gravity passed: nothing to
+        # extrapolate (the result is NOT_CONVERGED; its caller sets the reason)
+        res.error_estimate = {"energy": np.inf, "energy_rel": np.inf, "force": np.inf,
+                              "force_rel": np.inf}
+        return
     if pb.bond == 0:
         res.neck_force = np.array([forces.neck_force(r, p) if np.isfinite(r) else np.nan
                                    for r, p in zip(last.neck_radius, last.pressure)])
@@ -566,18 +643,25 @@ def _fill(res, records, s):
     if Fs:
         res.forces_vw = Fs[-1]
         Fx, Fe, p = _richardson_array(Fs)
+        comps = vw_component_list(pb, s.vw_components)
+        if comps is not None:
+            # grains whose force was not computed: NaN, never a silent zero
+            skip = np.array([g not in {c[0] for c in comps} for g in range(pb.n_grains)])
+            res.forces_vw, Fx, Fe = Fs[-1].copy(), Fx.copy(), Fe.copy()
+            for A in (res.forces_vw, Fx, Fe):
+                A[skip] = np.nan
         res.forces_vw_extrapolated = Fx
         res.forces = Fx
         res.force_method = ("virtual work, Richardson-extrapolated over levels" if p else
                             "virtual work, finest level")
         res.force_error = Fe
-        res.disagreement = Fs[-1] - last.forces_direct
+        res.disagreement = res.forces_vw - last.forces_direct
         scale = _force_scale(Fs[-1])
         res.error_estimate.update({
-            "force": float(Fe.max()), "force_rel": float(Fe.max()) / scale,
+            "force": float(np.nanmax(Fe)), "force_rel": float(np.nanmax(Fe)) / scale,
             "force_order": p,
-            "direct_vs_vw": float(np.abs(res.disagreement).max()),
-            "direct_vs_vw_rel": float(np.abs(res.disagreement).max()) / scale})
+            "direct_vs_vw": float(np.nanmax(np.abs(res.disagreement))),
+            "direct_vs_vw_rel": float(np.nanmax(np.abs(res.disagreement))) / scale})
     else:
         Fd = [r.forces_direct for r in records]
         _, Fe, _ = _richardson_array(Fd)

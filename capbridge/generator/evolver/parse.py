@@ -18,6 +18,7 @@ class Snapshot:
     newton_rejected: int = 0
     last_newton_de: float = np.nan
     scale: float = np.nan
+    indefinite: int = 0                 # Newton steps that met an indefinite Hessian
     body_volume: dict = field(default_factory=dict)
     body_target: dict = field(default_factory=dict)
     body_pressure: dict = field(default_factory=dict)
@@ -68,6 +69,8 @@ def parse_reports(text):
                 cur.newton_rejected = int(parts[2])
                 cur.last_newton_de = float(parts[3])
                 cur.scale = float(parts[4])
+            elif key == "@I":
+                cur.indefinite = int(parts[1])
             elif key == "@B":
                 b = int(parts[1])
                 cur.body_volume[b] = float(parts[2])

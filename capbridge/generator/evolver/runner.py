@@ -2,7 +2,8 @@
 
 Each run loads one datafile (or dump), reads commands from a file (``evolver -x -f``),
 with stdin closed so that it can never wait at its prompt.  The process is started in a
-new session; on time-out the whole process group is killed.
+new session; on time-out the whole process group is killed, and (Linux) the kernel kills
+it if the Python thread that started it dies (a killed sweep leaves no orphan running).
 """
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -20,6 +22,30 @@ EVOLVER = os.environ.get("CAPBRIDGE_EVOLVER", "evolver")
 
 #: Messages from Evolver that mean the run cannot be trusted.
 _ERROR_MARKERS = ("ERROR", "syntax error", "Syntax error", "Segmentation", "Internal error")
+
+
+def _die_with_parent():
+    """``preexec_fn``: ask the kernel to SIGKILL the child when the thread that started it
+    dies (Linux ``PR_SET_PDEATHSIG``), so that a killed sweep or script leaves no
+    ``evolver`` running on its own (it runs in a session of its own, which a terminal's
+    Ctrl-C or a ``kill`` of the Python process does not reach).  Only an async-signal-safe
+    system call runs between fork and exec."""
+    if _PRCTL is not None:
+        _PRCTL(1, signal.SIGKILL, 0, 0, 0)      # PR_SET_PDEATHSIG = 1
+
+
+def _load_prctl():
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        import ctypes
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl
+    except (OSError, AttributeError):
+        return None
+
+
+_PRCTL = _load_prctl()
 
 
 def evolver_path():
@@ -74,7 +100,8 @@ def run_evolver(datafile, commands, workdir, timeout=60.0, name="run"):
     proc = subprocess.Popen([exe, "-x", "-f", os.path.basename(cmdfile), str(datafile)],
                             cwd=workdir, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, errors="replace",
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=_die_with_parent if _PRCTL is not None else None)
     chunks = {"out": [], "err": []}
 
     def _reader(stream, key):

@@ -7,7 +7,8 @@ Relaxation (``cb_relax(ngrad, maxhess)``): ``ngrad`` gradient steps, then up to
 by one gradient step that re-imposes the one-sided constraints Hessian steps ignore).
 If a Newton step raised the energy anyway, the vertex positions are restored and more
 gradient steps are taken.  The loop stops when a Newton step changes the energy by less
-than ``cb_etol``.  The pressure (Lagrange multiplier) is read only after an iteration,
+than ``cb_etol``, or at the first indefinite Hessian (``eigenneg > 0``) when
+``cb_abort_indef`` is set (displaced runs).  The pressure (Lagrange multiplier) is read only after an iteration,
 never right after a refinement (it is stale there).
 
 Report lines (one item per line, parsed by :mod:`.parse`)::
@@ -15,6 +16,7 @@ Report lines (one item per line, parsed by :mod:`.parse`)::
     @BEGIN tag
     @E total_energy        @A liquid-gas area     @N nv ne nf
     @R newton_steps newton_rejected last_newton_dE  scale
+    @I newton_steps_with_an_indefinite_hessian
     @B body volume target pressure
     @V id x y z            @F id v1 v2 v3 body     @C constraint edge v1 v2
     @H constraint n_vertices_hitting               (one-sided constraints)
@@ -49,6 +51,7 @@ def prelude(grain_contacts, etol=1e-11):
     return f"""quiet on;
 cb_etol := {etol!r}; cb_vtol := 1e-9;
 cb_nh := 0; cb_hrej := 0; cb_lastde := 0; cb_tfrac := 0.25; cb_lfrac := 1.8; cb_ng := 0;
+cb_abort_indef := 0; cb_indef := 0;
 {violation_function(grain_contacts)}
 procedure cb_save() {{
   foreach vertex vv do {{ vv.cbo[1] := vv.x; vv.cbo[2] := vv.y; vv.cbo[3] := vv.z; }};
@@ -59,15 +62,16 @@ procedure cb_restore() {{
 }}
 procedure cb_relax(integer ngrad, integer maxhess) {{
   local ee0, kk, vv0;
-  cb_nh := 0; cb_hrej := 0; cb_lastde := 1e30; cb_ng := 0;
+  cb_nh := 0; cb_hrej := 0; cb_lastde := 1e30; cb_ng := 0; cb_indef := 0;
   if ngrad > 0 then g ngrad;
   for (kk := 1; kk <= maxhess; kk += 1) {{
     ee0 := total_energy;
     vv0 := max(body, abs(volume - target)/target);
     cb_save();
     hessian_seek;
-    if cb_viol() > 0 then {{ g 1; cb_ng += 1; }};
     cb_nh += 1;
+    if eigenneg > 0 then {{ cb_indef += 1; if cb_abort_indef then break; }};
+    if cb_viol() > 0 then {{ g 1; cb_ng += 1; }};
     cb_lastde := ee0 - total_energy;
     if total_energy > ee0 + cb_etol and vv0 < cb_vtol then {{
       cb_restore(); cb_hrej += 1;
@@ -105,6 +109,7 @@ def report(tag, contact_constraints, outside_constraints):
              f'printf "@A {f}\\n", total_area;',
              'printf "@N %d %d %d\\n", vertex_count, edge_count, facet_count;',
              f'printf "@R %d %d {f} {f}\\n", cb_nh, cb_hrej, cb_lastde, scale;',
+             'printf "@I %d\\n", cb_indef;',
              f'foreach body bb do printf "@B %d {f} {f} {f}\\n", bb.id, bb.volume, '
              'bb.target, bb.pressure;',
              f'foreach vertex vv do printf "@V %d {f} {f} {f}\\n", vv.id, vv.x, vv.y, vv.z;',
@@ -172,7 +177,7 @@ def transport_weight(grain, n_grains, v="vv"):
 
 
 def displaced(grain, shift, n_grains, contact, outside, ngrad=0, maxhess=12,
-              newton=True, tag="moved"):
+              newton=True, tag="moved", abort_indefinite=False):
     """Commands moving grain ``grain`` (0-based) by ``shift``, carrying the free surface
     along with the smooth weight of :func:`transport_weight` (the grain's own contact
     line moves rigidly, other grains' contact lines stay), then re-minimising at fixed
@@ -190,7 +195,10 @@ def displaced(grain, shift, n_grains, contact, outside, ngrad=0, maxhess=12,
          "recalc;",
          # a zero-length gradient step projects onto the constraints and sets the
          # pressures, which Hessian steps need (they may be invalid after loading a dump)
-         "m 1e-12; g 1; optimize 1;"]
+         "m 1e-12; g 1; optimize 1;",
+         # an indefinite Hessian here means the displacement left the basin of the
+         # minimum (theta = 0 on fine meshes): stop at once, the driver halves delta
+         f"cb_abort_indef := {1 if abort_indefinite else 0};"]
     if newton:
         c.append(f"cb_relax({ngrad}, {maxhess});")
     else:
