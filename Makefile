@@ -7,7 +7,7 @@ PY    := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc
 
-.PHONY: setup system-packages demo test test-fast bench data clean
+.PHONY: setup system-packages demo test test-fast bench bench-evolver data reproduce clean
 
 system-packages:
 	@missing=""; for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -35,6 +35,20 @@ test: setup
 
 bench: setup
 	$(PY) benchmarks/bench_doublet.py
+	$(PY) benchmarks/bench_yade.py
+
+# Surface Evolver: the paper's protocol against ours, and the 200-triplet stress run
+# (hours; resumable).  Results: benchmarks/evolver_out/, summarised in RESULTS.md.
+bench-evolver: setup
+	$(PY) benchmarks/bench_evolver.py compare --paper-refine 3 4 --paper-full D1 --ref-level 4
+	$(PY) benchmarks/bench_evolver.py stress --n 200 --jobs 2
+	$(PY) examples/evolver_convergence/run_convergence.py --levels 0 5 4 4 --levels 1 4 4 3 \
+	    --levels 2 4 3 3 --levels 3 4 3 3
+	$(PY) benchmarks/bench_evolver.py report
+
+# The triplet study of Miot et al. (2021): examples/miot2021 (resumable after a kill).
+reproduce: setup
+	$(VENV)/bin/capbridge reproduce miot2021 --checkpoint-dir .sweep-checkpoints/miot2021
 
 # Regenerates the shipped table (resumable: rerun after a kill to continue).
 data: setup

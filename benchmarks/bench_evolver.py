@@ -113,21 +113,13 @@ def problem(pt):
 
 def component(pt):
     """(grain, u): reported force = F[grain] . u (attraction > 0)."""
-    pb = problem(pt)
-    if POINTS[pt]["kind"] == "doublet":
-        u = pb.centres[1] - pb.centres[0]
-    else:
-        u = 0.5 * (pb.centres[1] + pb.centres[2]) - pb.centres[0]
-    return 0, u / np.linalg.norm(u)
+    from capbridge.generator.evolver.protocols import reported_component
+    return reported_component(problem(pt))
 
 
 def paper_move(pt):
-    """(grain, direction, sign): the paper stretches the system; the reported component
-    is sign * (F[grain] . direction)."""
-    _, u = component(pt)
-    if POINTS[pt]["kind"] == "doublet":
-        return 1, u, -1.0
-    return 0, -u, -1.0
+    from capbridge.generator.evolver.protocols import paper_stretch
+    return paper_stretch(problem(pt))
 
 
 def settings(**kw):

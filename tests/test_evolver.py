@@ -107,8 +107,9 @@ def test_runner_timeout_kills_process_group(tmp_path):
     assert not any(_evolver_children())
 
 
-def _evolver_children():
-    me = os.getpid()
+def _evolver_children(ppid=None):
+    """Pids of the evolver processes whose parent is ``ppid`` (default: this process)."""
+    ppid = os.getpid() if ppid is None else ppid
     for pid in os.listdir("/proc"):
         if not pid.isdigit():
             continue
@@ -117,7 +118,7 @@ def _evolver_children():
                 st = fh.read().split()
         except OSError:
             continue
-        if st[1] == "(evolver)" and int(st[3]) == me:
+        if st[1] == "(evolver)" and int(st[3]) == ppid:
             yield int(pid)
 
 
@@ -352,7 +353,7 @@ def test_evolver_dies_with_a_killed_python_parent(tmp_path):
     try:
         child = None
         for _ in range(200):
-            child = next(_evolver_children_of(py.pid), None)
+            child = next(_evolver_children(py.pid), None)
             if child:
                 break
             time.sleep(0.05)
@@ -369,22 +370,30 @@ def test_evolver_dies_with_a_killed_python_parent(tmp_path):
             py.kill()
 
 
-def _evolver_children_of(ppid):
-    for pid in os.listdir("/proc"):
-        if not pid.isdigit():
-            continue
-        try:
-            with open(f"/proc/{pid}/stat") as fh:
-                st = fh.read().split()
-        except OSError:
-            continue
-        if st[1] == "(evolver)" and int(st[3]) == ppid:
-            yield int(pid)
-
-
 def _is_zombie(pid):
     try:
         with open(f"/proc/{pid}/stat") as fh:
             return fh.read().split()[2] == "Z"
     except OSError:
         return True
+
+
+@pytest.mark.evolver
+@needs_evolver
+def test_caps_meeting_on_the_coarse_mesh_is_checked_on_a_finer_one():
+    """Three separate bridges at 0.59 of their exact coalescence volume (stress point 18):
+    the level-0 rings made caps meet and the point used to be flagged COALESCED.  Above
+    V_coal (1.3 x) the caps meet at min_refine and the flag stands."""
+    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+
+    d, theta = (0.3748, 0.0504, 0.1661), 53.45
+    pairs = [(0, 1), (0, 2), (1, 2)]
+    vc = find_coalescence(triplet_geometry(*d), theta, bridges=pairs, n_scan=16).V_coal
+    C = triplet_centres(*d)
+    below = minimise(make_problem(C, 1.0, theta, [0.59 * vc / 3] * 3, "bridges", pairs=pairs),
+                     Settings(max_refine=2, ftol=1e-2, etol=1e-2, workers=1))
+    assert below.status == Status.CONVERGED, below.reason
+    above = minimise(make_problem(C, 1.0, theta, [1.3 * vc / 3] * 3, "bridges", pairs=pairs),
+                     Settings(max_refine=2, ftol=1e-2, etol=1e-2, workers=1))
+    assert above.status == Status.COALESCED, above.reason
+    assert "level 2" in above.reason or "level 1" in above.reason

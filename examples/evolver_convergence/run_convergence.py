@@ -48,7 +48,8 @@ import numpy as np
 from capbridge.dimensionless import triplet_centres
 from capbridge.generator.evolver import Settings, doublet_problem, make_problem, minimise
 from capbridge.generator.evolver.minimise import _richardson_array
-from capbridge.generator.evolver.protocols import forward_difference_force
+from capbridge.generator.evolver.protocols import (forward_difference_force, paper_stretch,
+                                                  reported_component)
 from capbridge.generator.young_laplace import solve_doublet
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -88,22 +89,11 @@ def problem(case):
 
 def component(case):
     """(grain, unit vector u): the reported force is F[grain] . u (attraction > 0)."""
-    pb = problem(case)
-    if CASES[case]["kind"] == "doublet":
-        u = pb.centres[1] - pb.centres[0]
-    else:
-        u = 0.5 * (pb.centres[1] + pb.centres[2]) - pb.centres[0]
-    return 0, u / np.linalg.norm(u)
+    return reported_component(problem(case))
 
 
 def paper_move(case):
-    """(grain, direction) of the paper's stretching displacement, and the sign that turns
-    F[grain] . direction into the reported component."""
-    pb = problem(case)
-    g, u = component(case)
-    if CASES[case]["kind"] == "doublet":
-        return 1, u, -1.0          # grain 2 moved away along the axis; F_0 . u = -F_1 . u
-    return 0, -u, -1.0             # top grain moved up (away from the bottom pair)
+    return paper_stretch(problem(case))
 
 
 def exact(case):

@@ -184,3 +184,25 @@ def forward_difference_force(problem, grain, direction, delta=0.06, **kw):
     F = -(moved.energy - base.energy) / delta / (2 * np.pi) if ok else np.nan
     return FDForce(ok, reason, F, base, moved, delta, base.cpu_time + moved.cpu_time,
                    time.monotonic() - t0)
+
+
+def reported_component(problem):
+    """(grain, unit vector u) of the force component the paper reports: F[grain] . u.
+
+    Two grains: the attraction of grain 0 towards grain 1 (along the centre line).
+    Three grains: the pull on grain 0 (the top grain of the paper's triplet) towards the
+    midpoint of grains 1 and 2.
+    """
+    c = np.asarray(problem.centres, float)
+    u = (c[1] if len(c) == 2 else 0.5 * (c[1] + c[2])) - c[0]
+    return 0, u / np.linalg.norm(u)
+
+
+def paper_stretch(problem):
+    """(grain, direction, sign) of the paper's stretching displacement: a doublet is pulled
+    apart by moving grain 1 away from grain 0, a triplet by moving the top grain 0 away
+    from the others.  The reported component is ``sign * F[grain] . direction``."""
+    _, u = reported_component(problem)
+    if len(problem.centres) == 2:
+        return 1, u, -1.0          # F_0 . u = -F_1 . u
+    return 0, -u, -1.0
