@@ -42,8 +42,7 @@ bench: setup
 bench-evolver: setup
 	$(PY) benchmarks/bench_evolver.py compare --paper-refine 3 4 --paper-full D1 --ref-level 4
 	$(PY) benchmarks/bench_evolver.py stress --n 200 --jobs 2
-	$(PY) examples/evolver_convergence/run_convergence.py --levels 0 5 4 4 --levels 1 4 4 3 \
-	    --levels 2 4 3 3 --levels 3 4 3 3
+	$(PY) examples/evolver_convergence/run_convergence.py
 	$(PY) benchmarks/bench_evolver.py report
 
 # The triplet study of Miot et al. (2021): examples/miot2021 (resumable after a kill).
