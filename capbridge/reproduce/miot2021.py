@@ -542,10 +542,14 @@ def _force_table(R):
                 continue
             gams = [gm for gm in GAMMAS if abs(R["bonds"][gm] - p["bond"]) < 1e-9] if g \
                 else list(GAMMAS)
-            reg = regime
-            if regime == "coalesced" and p["volume"] < R["vc"].get(p["theta"], 0) * (1 - 1e-9):
-                reg = "coalesced_below_V_coal"     # energy probes (no gravity)
             for gam in gams:
+                # below its V_coal a coalesced body is a probe (energies), not the curve;
+                # with gravity V_coal is that found from the Evolver cap gaps
+                v_coal = (R["vc_grav"].get((gam, p["theta"]), np.nan) if g
+                          else ul(R["vc"].get(p["theta"], 0.0)))
+                reg = regime
+                if regime == "coalesced" and p["V_ul"] < v_coal - 1e-3:   # v0 rounded to 1e-3
+                    reg = "coalesced_below_V_coal"
                 rows.append({"regime": reg, "method": f"Surface Evolver (level "
                              f"{int(p['refinement']) if np.isfinite(p['refinement']) else -1})",
                              "gravity": bool(g), "gamma_N_m": gam, "bond": p["bond"],
@@ -560,6 +564,15 @@ def _force_table(R):
                              "lower_meniscus_z_mm": p["z_low"] * RADIUS * 1e3,
                              "level": p["level"], "cpu_s": p["cpu"], "wall_s": p["wall"]})
     return pd.DataFrame(rows)
+
+
+def _split_at_coalescence(rows, v_coal):
+    """(rows up to V_coal, rows past it): separate bridges past V_coal (caps overlapping)
+    are drawn as open markers, not as part of the curve."""
+    if v_coal is None or not np.isfinite(v_coal):
+        return rows, rows.iloc[:0]
+    past = rows["V_ul"] > v_coal + 1e-9
+    return rows[~past], rows[past]
 
 
 def _jumps(R):
@@ -742,12 +755,18 @@ def build_summary(plan, R, ft, jumps, en, cross):
     ng = ng_ev if len(ng_ev) >= 2 else g[(~g["gravity"]) & (g["regime"] == "uncoalesced")]
     s["gravity_effect_baseline"] = "Evolver, same level" if len(ng_ev) >= 2 else "exact"
     wg = g[(g["gravity"]) & (g["regime"] == "uncoalesced")]
-    rel = []
+    rel, rel_bottom = [], []
     for _, r in wg.iterrows():
         m = ng[np.isclose(ng["V_ul"], r["V_ul"])]
         if len(m) and np.isfinite(r["F_top_star"]):
             rel.append((r["V_ul"], 100 * (r["F_top_star"] / m["F_top_star"].iloc[0] - 1)))
+            # the bottom pair is pulled up by F_top - W* (the forces on the three grains
+            # sum to the liquid's weight W* = Bo V* / 2 pi, downwards)
+            w = r["bond"] * float(vstar(r["V_ul"])) / (2 * np.pi)
+            rel_bottom.append((r["V_ul"], 100 * ((r["F_top_star"] - w)
+                                                 / m["F_top_star"].iloc[0] - 1)))
     s["gravity_effect_uncoalesced_theta0_pct"] = dict(rel)
+    s["gravity_effect_uncoalesced_theta0_bottom_pair_pct"] = dict(rel_bottom)
     ngc = g[(~g["gravity"]) & (g["regime"] == "coalesced")]
     wgc = g[(g["gravity"]) & (g["regime"] == "coalesced")]
     rel = []
@@ -776,6 +795,11 @@ def build_summary(plan, R, ft, jumps, en, cross):
     for df in (R["dfdv"], c0, b, cg):
         for n in df.get("status_name", []):
             s["evolver_points"]["by_status"][n] = s["evolver_points"]["by_status"].get(n, 0) + 1
+    # time of every Evolver point, whichever run computed it (checkpoints are reused)
+    s["evolver_points"]["wall_h"] = float(sum(np.nansum(df["wall"]) for df in
+                                              (R["dfdv"], c0, b, cg) if len(df))) / 3600
+    s["evolver_points"]["cpu_h"] = float(sum(np.nansum(df["cpu"]) for df in
+                                             (R["dfdv"], c0, b, cg) if len(df))) / 3600
     return s
 
 
@@ -887,6 +911,10 @@ def make_figures(out, plan, R, ft, jumps, en):
                 r = r[r["V_ul"] >= ul(R["vc"][0.0]) - 1e-9]
             r = r.sort_values("V_ul")
             lab = f"gamma {gam}, {'gravity' if grav else 'no gravity'}, {regime}"
+            if regime == "uncoalesced":
+                r, past = _split_at_coalescence(r, R["vc_grav"].get((gam, 0.0)))
+                axs[0].plot(past["V_ul"], past["F_top_mN"], mk, color=c, mfc="none")
+                axs[1].plot(past["V_ul"], past["F_top_star"], mk, color=c, mfc="none")
             axs[0].plot(r["V_ul"], r["F_top_mN"], mk + ls, color=c, mfc=fill, label=lab)
             axs[1].plot(r["V_ul"], r["F_top_star"], mk + ls, color=c, mfc=fill)
     axs[0].set_ylabel("F on top grain [mN]")
@@ -907,7 +935,14 @@ def make_figures(out, plan, R, ft, jumps, en):
         for t, mk in ((60.0, "^"), (55.0, "s")):
             for regime, ls in (("uncoalesced", ":"), ("coalesced", "-")):
                 r = s14[(s14["theta_deg"] == t) & (s14["regime"] == regime)].sort_values("V_ul")
-                ax.plot(r["V_ul"], r["F_top_mN"], mk + ls, label=f"theta {t:g}, {regime}")
+                if regime == "uncoalesced":
+                    r, past = _split_at_coalescence(r, R["vc_grav"].get((0.0693, t)))
+                    ax.plot(past["V_ul"], past["F_top_mN"], mk, color="gray", mfc="none")
+                line, = ax.plot(r["V_ul"], r["F_top_mN"], mk + ls, label=f"theta {t:g}, {regime}")
+                rough = r[r["force_err_rel"] > 0.03]
+                ax.plot(rough["V_ul"], rough["F_top_mN"], mk, color="w", ms=4)
+        ax.text(0.98, 0.02, "white centre: estimated force error > 3 %; gray: separate "
+                "bridges past V_coal", transform=ax.transAxes, ha="right", fontsize=6)
         ax.set_xlabel("total volume V [ul]")
         ax.set_ylabel("F on top grain [mN]")
         ax.set_title("gamma = 0.0693 N/m, gravity (Fig. 14)")
@@ -1120,16 +1155,42 @@ def write_claims(out, s):
                and abs(r["gamma"] - 0.073) < 1e-9), None)
     ge = s.get("gravity_effect_uncoalesced_theta0_pct", {})
     gc = s.get("gravity_effect_coalesced_theta0_pct", {})
-    gtxt = (f"two bridges: {_f(min(ge.values()), 1)} to {_f(max(ge.values()), 1)} %" if ge else "n/a")
-    gtxt += (f"; coalesced: {_f(min(gc.values()), 1)} to {_f(max(gc.values()), 1)} %" if gc else "")
-    rows.append(("Gravity, theta = 0, gamma = 0.073: force", "lowered", gtxt,
-                 "same sign" if ge and max(ge.values()) < 0 else "see text", ""))
+    gb = s.get("gravity_effect_uncoalesced_theta0_bottom_pair_pct", {})
+
+    def _span(d):
+        return f"{_f(min(d.values()), 1)} to {_f(max(d.values()), 1)} %"
+
+    gtxt = (f"two bridges, top grain: {_span(ge)}; bottom pair (top - weight): {_span(gb)}"
+            if ge and gb else "n/a")
+    gtxt += f"; coalesced, top grain: {_span(gc)}" if gc else ""
+    if ge and max(ge.values()) < 0:
+        gverdict, gnote = "same sign", ""
+    elif gb and max(gb.values()) < 0 and (not gc or max(gc.values()) < 0):
+        gverdict = "differs before coalescence (top grain); same sign after"
+        gnote = ("With gravity the forces on the top grain and on the bottom pair differ by "
+                 "the liquid's weight W* = Bo V*/(2 pi). Before coalescence part of the "
+                 "weight hangs from the top grain, so its pull rises while the bottom "
+                 "pair's falls; after coalescence both fall. The experiment's force "
+                 "(differential weighing of the bottom pair, paper section 3.1) is the top "
+                 "grain's; the paper's drop before coalescence matches our bottom pair's. "
+                 "We cannot tell from the text which its virtual work gave.")
+    else:
+        gverdict, gnote = "differs (see text)", ""
+    rows.append(("Gravity, theta = 0, gamma = 0.073: force", "lowered", gtxt, gverdict,
+                 gnote))
+    if g0:
+        dv0 = g0["V_coal_corrected_ul"] - v0
+        vnote = ("gravity changes V_coal little, as in the paper" if abs(dv0) < 0.5 else
+                 "gravity lowers V_coal here: at every volume the two bridges' caps on "
+                 "the top grain are closer with gravity than without (cap gaps against "
+                 "volume in evolver_bridges.csv)" if dv0 < 0 else
+                 "gravity raises V_coal here")
     rows.append(("Gravity, theta = 0: V_coal", "still 14-14.5 ul",
                  (f"{_f(g0['V_coal_mesh_ul'])} ul from the mesh (level {s['max_refine']}); "
                   f"{_f(g0['V_coal_corrected_ul'])} ul with the mesh bias measured without "
                   f"gravity removed (exact no-gravity: {_f(v0)} ul)") if g0 else "n/a",
-                 (f"{_f(g0['V_coal_corrected_ul'] - v0)} ul from our no-gravity value")
-                 if g0 else "", "gravity changes V_coal little, as in the paper"))
+                 (f"{_f(dv0)} ul from our no-gravity value") if g0 else "",
+                 vnote if g0 else ""))
     # 8 gamma 0.0693 theta 55-60
     gg = [r for r in s["V_coal_gravity"] if r["bond"] > 0 and abs(r["gamma"] - 0.0693) < 1e-9
           and r["theta_deg"] in (55.0, 60.0)]
@@ -1138,10 +1199,16 @@ def write_claims(out, s):
                  "; ".join(f"theta {r['theta_deg']:g}: {_f(r['V_coal_corrected_ul'])} ul "
                            f"(mesh {_f(r['V_coal_mesh_ul'])})" for r in gg) or "n/a",
                  "; ".join(f"{_f(r['V_coal_corrected_ul'] - 25.0)} ul from the middle (25)"
-                           for r in gg), ""))
+                           for r in gg),
+                 "" if all(24 <= r["V_coal_corrected_ul"] <= 26 for r in gg) else
+                 "Ours is lower: with gravity the caps on the top grain meet at smaller "
+                 "volumes at every angle computed (see the theta = 0 rows). The experiment "
+                 "coalesced between 16 and 20 ul (paper, section 3.6)."))
     rows.append(("... theta = 60 deg, 20 ul: beta below alpha by", "< 3 deg",
                  f"{_f(ab)} deg (alpha - beta, beta = alpha - cap gap / 2 from the mesh)",
-                 "agrees" if ab is not None and ab < 3 else "see text", ""))
+                 "agrees" if ab is not None and 0 <= ab < 3 else
+                 "differs: beta already above alpha (caps met below 20 ul)"
+                 if ab is not None and ab < 0 else "see text", ""))
     # 9 trimer
     zl = [z for z in s.get("lower_meniscus", []) if z["z_low_mm"] is not None]
     if zl:
@@ -1184,11 +1251,16 @@ def write_claims(out, s):
                  "-", ctxt + ". Below the lowest volume listed the coalesced body was not "
                  "found (folds with every starting mesh: no equilibrium)."))
 
+    ep = s.get("evolver_points", {})
     lines = ["# Miot et al. (2021) reproduced: the paper's numbers beside ours", "",
              f"Made by `{s.get('command', 'capbridge reproduce miot2021')}`"
              + (" (QUICK mode: coarse meshes, a handful of points; not the committed results)"
                 if s["quick"] else "") + f". Evolver refinement level {s['max_refine']}. "
-             f"Run time {s.get('timings_s', {}).get('total', 'n/a')} s.", "",
+             f"{ep.get('total', 0)} Evolver points ({ep.get('converged', 0)} converged), "
+             f"{_f(ep.get('wall_h', np.nan))} h of wall time and {_f(ep.get('cpu_h', np.nan))} h "
+             "of Evolver CPU summed over the points (2 shared cores, resumed from "
+             f"checkpoints); this invocation {s.get('timings_s', {}).get('total', 'n/a')} s.",
+             "",
              "Triplet: r = 4 mm, d12* = d13* = 0.175, d23* = 0.075, bridges 1-2 and 1-3 of "
              f"equal volume; opening angle alpha = {_f(alpha)} deg. Volumes are totals in ul "
              "(V* = V/64). Forces are the vertical pull on the top grain.", "",
@@ -1202,13 +1274,20 @@ def write_claims(out, s):
         p = 14.5 + t / 90 * 18
         lines.append(f"| {t:g} | {_f(v)} | {_f(p)} | {_f(v - p)} |")
     lines += ["", "## Force on the top grain at coalescence", "",
-              "| theta | gravity | gamma [N/m] | V_coal [ul] | F* before | F* after | change |",
-              "|---|---|---|---|---|---|---|"]
+              "Before: separate bridges at V_coal (exact; with gravity, Evolver interpolated "
+              "to V_coal). After: the coalesced body at the smallest volume where it "
+              "converged (column 'at'); below that volume it folds (no equilibrium found).",
+              "",
+              "| theta | gravity | gamma [N/m] | V_coal [ul] | F* before | F* after | at [ul] "
+              "| change |",
+              "|---|---|---|---|---|---|---|---|"]
     for j in s["force_jumps"]:
+        v_after = j.get("V_after_ul")
+        v_after = j["V_coal_ul"] if v_after is None or not np.isfinite(v_after) else v_after
         lines.append(f"| {j['theta_deg']:g} | {'yes' if j['gravity'] else 'no'} | "
                      f"{_f(j['gamma_N_m'], 4) if j['gravity'] else '-'} | {_f(j['V_coal_ul'])} | "
                      f"{_f(j['F_before_star'], 3)} | {_f(j['F_after_star'], 3)} | "
-                     f"{_f(j['change_pct'], 1)} % |")
+                     f"{_f(v_after)} | {_f(j['change_pct'], 1)} % |")
     lines += ["", "## Files", "",
               "* `triplet_forces.csv`: every curve (exact two-bridge and Evolver points), "
               "F* and mN for both surface tensions, pair forces f12, f13, f23 and the residual "
