@@ -40,7 +40,7 @@ bench: setup
 # Surface Evolver: the paper's protocol against ours, and the 200-triplet stress run
 # (hours; resumable).  Results: benchmarks/evolver_out/, summarised in RESULTS.md.
 bench-evolver: setup
-	$(PY) benchmarks/bench_evolver.py compare --paper-refine 3 4 --paper-full D1 --ref-level 4
+	$(PY) benchmarks/bench_evolver.py compare --paper-refine 3 4 --paper-full D1
 	$(PY) benchmarks/bench_evolver.py stress --n 200 --jobs 2
 	$(PY) examples/evolver_convergence/run_convergence.py
 	$(PY) benchmarks/bench_evolver.py report

@@ -305,14 +305,15 @@ def compare_markdown(res):
                          cpu6=cpu6, cpu6_measured=6 in paper, err6=err6))
     if not rows:
         return "(no complete points yet)"
+    ns = sorted(set(n for r in rows for n in r["paper"]) | {6})
     L.append("| point | reference F* | ours: F* (error) | ours: level, CPU s | "
-             + " | ".join(f"paper N={n}: error, CPU s" for n in (4, 5, 6)) +
+             + " | ".join(f"paper N={n}: error, CPU s" for n in ns) +
              " | FD bias (δd*=0.06) | CPU ratio paper(N=6)/ours |")
-    L.append("|---|---|---|---|---|---|---|---|---|")
+    L.append("|---" * (6 + len(ns)) + "|")
     for r in rows:
         o = r["ours"]
         cells = []
-        for n in (4, 5, 6):
+        for n in ns:
             d = r["paper"].get(n)
             if d:
                 cells.append(f"{d['force'] / r['Fr'] - 1:+.2%}, {d['cpu']:.1f}")
@@ -326,7 +327,8 @@ def compare_markdown(res):
         L.append(f"| {r['pt']}: {r['desc']} | {refs} | {o['force']:.5f} "
                  f"({o['force'] / r['Fr'] - 1:+.3%}) | L{o['level']} ({o['n_facets']}), "
                  f"{o['cpu']:.1f} | " + " | ".join(cells) +
-                 f" | {bias:+.2%} | {r['cpu6'] / o['cpu']:.0f}×"
+                 f" | {'n/a' if not np.isfinite(bias) else f'{bias:+.2%}'} | "
+                 f"{r['cpu6'] / o['cpu']:.0f}×"
                  + ("" if r["cpu6_measured"] else " (model)") + " |")
     ratios = [r["cpu6"] / r["ours"]["cpu"] for r in rows]
     L.append("")
