@@ -383,13 +383,8 @@ def plots(ref_rows, lev_rows, it_rows, te_rows, cases):
         if ref.get("exact_secant_delta006") is not None:
             ax.axhline(ref["exact_secant_delta006"], color="gray", ls=":", lw=0.8,
                        label="exact secant, δd*=0.06")
-        ax.set_xlabel("refinement level")
-        ax.set_ylabel("F*")
-        ax.set_title(titles[case], fontsize=9)
-        ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "force_vs_refinement.png"), dpi=130)
-    plt.close(fig)
+        _finish_axes(ax, "refinement level", "F*", titles[case])
+    _save(fig, "force_vs_refinement.png")
     # 2. force and energy against iterations, relative to the last Newton value
     fig, axes = plt.subplots(2, len(cases), figsize=(4.2 * len(cases), 7.2), squeeze=False)
     for col, case in enumerate(cases):
@@ -417,9 +412,7 @@ def plots(ref_rows, lev_rows, it_rows, te_rows, cases):
         axes[0, col].set_ylabel("|F*/F*_Newton − 1| (same FD, δd*=0.06)")
         axes[1, col].set_ylabel("|E* − E*_Newton| (unmoved configuration)")
         axes[0, col].set_title(titles[case], fontsize=9)
-    fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "force_vs_iterations.png"), dpi=130)
-    plt.close(fig)
+    _save(fig, "force_vs_iterations.png")
     # 3. CPU time against error
     fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.8), squeeze=False)
     marks = {"ours, finest level": "o-", "ours, Richardson": "^-", "paper protocol": "s--",
@@ -438,12 +431,22 @@ def plots(ref_rows, lev_rows, it_rows, te_rows, cases):
                 ax.loglog([r["cpu_per_force"] for r in pts],
                           [max(r["rel_error"], 1e-6) for r in pts], st, label=meth,
                           ms=10 if len(st) == 1 else 5)
-        ax.set_xlabel("Evolver CPU s per force (one process)")
-        ax.set_ylabel("|F*/F*_ref − 1|")
-        ax.set_title(titles[case], fontsize=9)
-        ax.legend(fontsize=7)
+        _finish_axes(ax, "Evolver CPU s per force (one process)", "|F*/F*_ref − 1|",
+                     titles[case])
+    _save(fig, "time_vs_error.png")
+
+
+def _finish_axes(ax, xlabel, ylabel, title):
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
+
+
+def _save(fig, name):
+    import matplotlib.pyplot as plt
     fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "time_vs_error.png"), dpi=130)
+    fig.savefig(os.path.join(HERE, name), dpi=130)
     plt.close(fig)
 
 
