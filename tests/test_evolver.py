@@ -397,3 +397,14 @@ def test_caps_meeting_on_the_coarse_mesh_is_checked_on_a_finer_one():
                      Settings(max_refine=2, ftol=1e-2, etol=1e-2, workers=1))
     assert above.status == Status.COALESCED, above.reason
     assert "level 2" in above.reason or "level 1" in above.reason
+
+
+def test_coalesced_starting_body_with_near_touching_grains():
+    """Five coalesced stress points with a gap < 0.035 and V* >= 0.35: the bisection on the
+    rings' half-angle ended between a valid and an invalid hull and returned the untested
+    midpoint ("contact-ring points not on the convex hull"); it returns a tested one."""
+    for d, volume in (((0.08898, 0.26037, 0.019135), 0.3501),
+                      ((0.059393, 0.00098691, 0.095602), 0.54113),
+                      ((0.03068134, 0.3706652, 0.2087285), 0.58515)):
+        mp = mesh_problem(make_problem(triplet_centres(*d), 1.0, 30.0, volume, "coalesced"))
+        assert len(mp.problem.bodies) == 1 and len(mp.contact_constraints) == 3

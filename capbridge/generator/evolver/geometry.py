@@ -295,7 +295,9 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
                 hi = mid
             else:
                 lo = mid
-        beta = 0.5 * (lo + hi)
+        # lo is a valid hull (validity is not monotonic in beta: near-touching grains
+        # give invalid hulls between valid ones, and the midpoint was never tested)
+        beta = lo
     return hull_body(body_rings(grains, centres, radii, beta, n))
 
 
