@@ -199,11 +199,14 @@ def vw_component_list(pb, components):
         g = int(g)
         u = np.asarray(u, float)
         if g not in wet:
-            raise ValueError(f"vw_components: grain {g} is not wetted")
+            raise ValueError(f"vw_components: grain {g} is not wetted (wetted grains, "
+                             f"0-based: {sorted(wet)})")
         if g in seen:
-            raise ValueError(f"vw_components: grain {g} listed twice")
+            raise ValueError(f"vw_components: grain {g} listed twice (one direction per "
+                             "grain)")
         if u.shape != (3,) or not np.linalg.norm(u) > 0:
-            raise ValueError("vw_components: directions must be non-zero 3-vectors")
+            raise ValueError(f"vw_components: direction {u.tolist()} of grain {g} must be a "
+                             "non-zero 3-vector")
         seen.add(g)
         out.append((g, u / np.linalg.norm(u)))
     if not out:
