@@ -8,8 +8,9 @@ by one gradient step that re-imposes the one-sided constraints Hessian steps ign
 If a Newton step raised the energy anyway, the vertex positions are restored and more
 gradient steps are taken.  The loop stops when a Newton step changes the energy by less
 than ``cb_etol``, or at the first indefinite Hessian (``eigenneg > 0``) when
-``cb_abort_indef`` is set (displaced runs).  The pressure (Lagrange multiplier) is read only after an iteration,
-never right after a refinement (it is stale there).
+``cb_abort_indef`` is set (displaced runs, ``Settings.vw_abort_indefinite``).  The
+pressure (Lagrange multiplier) is read only after an iteration, never right after a
+refinement (it is stale there).
 
 Report lines (one item per line, parsed by :mod:`.parse`)::
 
@@ -196,8 +197,8 @@ def displaced(grain, shift, n_grains, contact, outside, ngrad=0, maxhess=12,
          # a zero-length gradient step projects onto the constraints and sets the
          # pressures, which Hessian steps need (they may be invalid after loading a dump)
          "m 1e-12; g 1; optimize 1;",
-         # an indefinite Hessian here means the displacement left the basin of the
-         # minimum (theta = 0 on fine meshes): stop at once, the driver halves delta
+         # with abort_indefinite, an indefinite Hessian means the displacement left the
+         # basin of the minimum (theta = 0 on fine meshes): stop, the driver halves delta
          f"cb_abort_indef := {1 if abort_indefinite else 0};"]
     if newton:
         c.append(f"cb_relax({ngrad}, {maxhess});")
