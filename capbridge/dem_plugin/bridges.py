@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 
+from capbridge.dimensionless import force_scale
 from capbridge.status import Status
 
 __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
@@ -35,7 +35,9 @@ __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
 
 def default_table_path():
     """The shipped doublet table, ``<project>/data/doublet_table.nc``."""
-    return Path(__file__).resolve().parents[2] / "data" / "doublet_table.nc"
+    from capbridge.surrogate.doublet import _default_table
+
+    return _default_table()
 
 
 def distinct_values(x, rtol=1e-9):
@@ -45,17 +47,6 @@ def distinct_values(x, rtol=1e-9):
         return x
     keep = np.concatenate([[True], np.diff(x) > rtol * np.abs(x[1:])])
     return x[keep]
-
-
-def _spline(values, axis, coarse, points):
-    """Cubic interpolating spline of ``values`` along ``axis`` evaluated at ``points``
-    (the surrogate's ``_refine_axis``: degree 3, or fewer with fewer nodes)."""
-    from scipy.interpolate import make_interp_spline
-
-    k = min(3, len(coarse) - 1)
-    if k < 1:
-        return np.repeat(np.take(values, [0], axis=axis), len(np.atleast_1d(points)), axis=axis)
-    return make_interp_spline(coarse, values, k=k, axis=axis)(points)
 
 
 # ------------------------------------------------------------------------------------
@@ -88,8 +79,7 @@ class SceneTable:
                  ratio_step=0.01, max_discrete=12, continuous=None):
         from capbridge.surrogate.doublet import DoubletSurrogate
 
-        sur = table if isinstance(table, DoubletSurrogate) else DoubletSurrogate().fit(
-            table if not isinstance(table, Path) else str(table))
+        sur = table if isinstance(table, DoubletSurrogate) else DoubletSurrogate().fit(table)
         sur._check_fitted()
         self.surrogate = sur
         ds = sur.table_
@@ -146,18 +136,21 @@ class SceneTable:
         return ax.nodes[it], ax.nodes[it + 1], ft
 
     def _build(self, values):
-        """values: (ratio, theta, volume[, s]) coarse -> (theta, node, vfine[, sfine])."""
+        """values: (ratio, theta, volume[, s]) coarse -> (theta, node, vfine[, sfine]),
+        with the surrogate's own cubic refinement along each axis."""
+        from capbridge.surrogate.doublet import _refine_axis
+
         sur = self.surrogate
         lo, hi, w = self._theta_weights()
-        a = _spline(values, 1, sur.theta_, lo)
-        b = _spline(values, 1, sur.theta_, hi)
+        a = _refine_axis(values, 1, sur.theta_, lo)
+        b = _refine_axis(values, 1, sur.theta_, hi)
         wb = w.reshape((1, -1) + (1,) * (values.ndim - 2))
         v = a * (1 - wb) + b * wb                                # (ratio, theta, V[, s])
-        v = _spline(v, 0, np.log(sur.ratios_), np.log(self.ratio_nodes))  # (node, theta, ...)
+        v = _refine_axis(v, 0, np.log(sur.ratios_), np.log(self.ratio_nodes))  # (node, theta, ...)
         v = np.swapaxes(v, 0, 1)                                 # (theta, node, V[, s])
-        v = _spline(v, 2, np.log(sur.volume_), self.v_axis.nodes)
+        v = _refine_axis(v, 2, np.log(sur.volume_), self.v_axis.nodes)
         if v.ndim == 4:
-            v = _spline(v, 3, sur.s_, self.s_axis.nodes)
+            v = _refine_axis(v, 3, sur.s_, self.s_axis.nodes)
         return v
 
     # ------------------------------------------------------------------------- lookup
@@ -435,7 +428,6 @@ class BridgeModel:
         self.theta_classes, self.grain_class = np.unique(self.theta, return_inverse=True)
         tc = self.theta_classes
         self.pair_theta = 0.5 * (tc[:, None] + tc[None, :])
-        self.mixed_angles = tc.size > 1
         if isinstance(table, SceneTable):
             self.table = table
         else:
@@ -550,10 +542,11 @@ class BridgeModel:
         self.rsmall = np.concatenate([self.rsmall, rs])
         for k in self.const:
             self.const[k] = np.concatenate([self.const[k], c[k]])
-        self.d_rupt_si = np.concatenate([self.d_rupt_si, c["d_rupt"] * rs])
+        d_rupt_si = c["d_rupt"] * rs
+        self.d_rupt_si = np.concatenate([self.d_rupt_si, d_rupt_si])
         self.rsum = np.concatenate([self.rsum, self.radii[i] + self.radii[j]])
-        self.inv_dr = np.concatenate([self.inv_dr, 1.0 / (c["d_rupt"] * rs)])
-        self.fscale = np.concatenate([self.fscale, (2.0 * math.pi * self.gamma) * rs])
+        self.inv_dr = np.concatenate([self.inv_dr, 1.0 / d_rupt_si])
+        self.fscale = np.concatenate([self.fscale, force_scale(rs, self.gamma)])
         self.keys = np.concatenate([self.keys, keys])
         self.born = np.concatenate([self.born, np.full(i.size, step, np.intp)])
         self.held = np.vstack([self.held, np.zeros((i.size, 3))])
@@ -737,10 +730,6 @@ class BridgeModel:
         force *= self.fscale
         return {"d": d, "dist": dist, "gap": gap, "force": force, "ruptured": n_rupt,
                 "formed": n_form}
-
-    def unit_vectors(self, geom):
-        """Unit vectors grain i -> grain j of the bridges of ``geom``."""
-        return geom["d"] / geom["dist"][:, None]
 
     def grain_forces(self, geom, tolerance=0.0):
         """Bridge forces summed on the grains, for the DEM.

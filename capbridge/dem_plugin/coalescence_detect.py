@@ -146,9 +146,8 @@ def find_coalescence(pos, bi, bj, beta_i, beta_j, volumes=None, n_grains=None):
     a, b = np.minimum(a, b), np.maximum(a, b)          # canonical order
     ja, kb = np.minimum(ja, kb), np.maximum(ja, kb)
     nb = bi.size
-    keys = set((np.minimum(bi, bj).astype(np.int64) * n_grains + np.maximum(bi, bj)).tolist())
-    jk = np.minimum(ja, kb).astype(np.int64) * n_grains + np.maximum(ja, kb)
-    closed = np.fromiter((k in keys for k in jk.tolist()), bool, count=jk.size)
+    keys = np.minimum(bi, bj).astype(np.int64) * n_grains + np.maximum(bi, bj)
+    closed = np.isin(ja.astype(np.int64) * n_grains + kb, keys)     # ja < kb already
     # clusters: connected components of the merge graph on bridges
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components

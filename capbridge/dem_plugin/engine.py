@@ -119,6 +119,23 @@ def _yade():
     return yade, wrapper
 
 
+def _bulk_centres():
+    """(n, 3) centres of all bodies, in ``O.bodies`` order: one bulk read per axis."""
+    from yade import _utils
+
+    return np.column_stack([np.fromiter(_utils.coordsAndDisplacements(k)[0], float)
+                            for k in range(3)])
+
+
+def _rows_of_ids(O):
+    """``(rows, n)``: the row of every body id in :func:`_bulk_centres` (-1: no body)
+    and the number of bodies."""
+    order = np.array([b.id for b in O.bodies], np.intp)
+    rows = np.full(order.max(initial=0) + 1, -1, np.intp)
+    rows[order] = np.arange(order.size)
+    return rows, order.size
+
+
 class CapbridgeEngine:
     """Volume-controlled capillary bridges from capbridge's doublet table, in YADE.
 
@@ -238,9 +255,7 @@ class CapbridgeEngine:
 
     def _setup(self):
         t0 = time.perf_counter()
-        yade, _ = _yade()
-        from yade import wrapper
-
+        yade, wrapper = _yade()
         O = yade.Omega()
         sphere_cls = wrapper.Sphere
         if self.ids_requested is None:
@@ -288,23 +303,17 @@ class CapbridgeEngine:
     def _map_rows(self):
         """Rows of our spheres in the bulk position read (body iteration order)."""
         yade, _ = _yade()
-        O = yade.Omega()
-        order = np.array([b.id for b in O.bodies], np.intp)
-        where = np.full(order.max(initial=0) + 1, -1, np.intp)
-        where[order] = np.arange(order.size)
-        self._n_read = order.size
+        where, self._n_read = _rows_of_ids(yade.Omega())
         self._rows = where[self.ids]
         if np.any(self._rows < 0):
             raise RuntimeError("a wet sphere was erased; call reset()")
 
     def positions(self):
         """(n, 3) centres of the wet spheres, one bulk read per axis."""
-        from yade import _utils
-
-        cols = [np.fromiter(_utils.coordsAndDisplacements(k)[0], float) for k in range(3)]
-        if cols[0].size != self._n_read:
+        xyz = _bulk_centres()
+        if xyz.shape[0] != self._n_read:
             self._map_rows()
-        return np.column_stack(cols)[self._rows]
+        return xyz[self._rows]
 
     def step(self):
         """One update (called by the PyRunner)."""

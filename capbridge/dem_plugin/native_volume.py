@@ -157,8 +157,7 @@ def _rupture_rows(sur_tab, theta, ratios, gaps, V, L, s_axis, lo, hi, n_iter=60)
     """For every ratio and grid gap g: the size s whose bridge ruptures exactly at g
     (bisection on s, the rupture gap decreasing with s), as SuctionTable.edge."""
     n_r, n_g = ratios.size, gaps.size
-    out = {k: np.full((n_r, n_g), np.nan) for k in ("suction", "gap", "volume", "force",
-                                                    "beta1", "beta2")}
+    out = {k: np.full((n_r, n_g), np.nan) for k in ye.SuctionTable.EDGE_KEYS}
     s_lo = max(s_axis[0], (V / hi) ** (1 / 3) / L)
     s_hi = min(s_axis[-1], (V / lo) ** (1 / 3) / L)
     for i, rho in enumerate(ratios):
@@ -218,6 +217,7 @@ class NativeVolumeBridges:
             theta, self.radii, bridge_volume=bridge_volume, bridge_volume_star=bridge_volume_star,
             table=table, n_gaps=n_gaps)
         self.L = self.info["L"]
+        self._radius = {}                  # body id -> radius, filled by scan()
         with warnings.catch_warnings():
             # the ratios above the scene's get bridge-free placeholder files on purpose
             warnings.filterwarnings("ignore", message="writing bridge-free placeholder")
@@ -254,8 +254,8 @@ class NativeVolumeBridges:
         and what the rule says it must be, and the coalescence summary (geometric
         criterion on YADE's filling angles: ``Delta1`` on the smaller grain)."""
         import yade
-        from yade import _utils
         from capbridge.dem_plugin.coalescence_detect import find_coalescence
+        from capbridge.dem_plugin.engine import _bulk_centres, _rows_of_ids
 
         O = yade.Omega()
         id1, id2, vol, dl1, dl2 = [], [], [], [], []
@@ -268,8 +268,6 @@ class NativeVolumeBridges:
                 dl1.append(p.Delta1); dl2.append(p.Delta2)
         id1, id2 = np.array(id1, np.intp), np.array(id2, np.intp)
         vol = np.array(vol)
-        if not hasattr(self, "_radius"):
-            self._radius = {}
         for b in set(id1.tolist()) | set(id2.tolist()):
             if b not in self._radius:
                 self._radius[b] = O.bodies[b].shape.radius
@@ -285,15 +283,12 @@ class NativeVolumeBridges:
         if pairs:
             out["pairs"] = np.column_stack([id1, id2])
         if coalescence and id1.size:
-            order = np.array([b.id for b in O.bodies], np.intp)
-            xyz = np.column_stack([np.fromiter(_utils.coordsAndDisplacements(k)[0], float)
-                                   for k in range(3)])
-            where = np.full(order.max() + 1, -1, np.intp)
-            where[order] = np.arange(order.size)
+            where, n_bodies = _rows_of_ids(O)
             small1 = r1 <= r2
             dl1, dl2 = np.array(dl1), np.array(dl2)
-            rep = find_coalescence(xyz, where[id1], where[id2], np.where(small1, dl1, dl2),
-                                   np.where(small1, dl2, dl1), vol, n_grains=order.size)
+            rep = find_coalescence(_bulk_centres(), where[id1], where[id2],
+                                   np.where(small1, dl1, dl2), np.where(small1, dl2, dl1), vol,
+                                   n_grains=n_bodies)
             out["coalescence"] = rep.summary()
         return out
 

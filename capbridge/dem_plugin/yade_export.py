@@ -954,13 +954,17 @@ def rupture_edge(theta, ratios, suctions, gaps, *, solver_kwargs=None, tol=1e-10
         idx = np.array(idx)
         target = gaps[idx]
         side = np.zeros(idx.size, int)
-        x = lo.copy()
+        x, b = lo.copy(), None
         for _ in range(max_iter):                 # Illinois (modified regula falsi)
             x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
-            f = rupture(x, rho)["gap"] - target
-            bad = ~np.isfinite(f)
-            x[bad] = 0.5 * (lo[bad] + hi[bad])
-            f[bad] = (rupture(x[bad], rho)["gap"] - target[bad]) if bad.any() else f[bad]
+            b = rupture(x, rho)                   # the bridges at x, kept for the result
+            bad = ~np.isfinite(b["gap"])
+            if bad.any():                         # no rupture found there: bisect instead
+                x[bad] = 0.5 * (lo[bad] + hi[bad])
+                b_bad = rupture(x[bad], rho)
+                for k in b:
+                    b[k][bad] = b_bad[k]
+            f = b["gap"] - target
             done = np.abs(f) <= tol * np.maximum(target, 1.0)
             if np.all(done | ~np.isfinite(f)):
                 break
@@ -970,7 +974,8 @@ def rupture_edge(theta, ratios, suctions, gaps, *, solver_kwargs=None, tol=1e-10
             f_hi = np.where(left & (side == 1), f_hi / 2, f_hi)
             f_lo = np.where(~left & (side == -1), f_lo / 2, f_lo)
             side = np.where(left, 1, -1)
-        b = rupture(x, rho)
+        if b is None:
+            b = rupture(x, rho)
         good = np.isfinite(b["gap"]) & (np.abs(b["gap"] - target) <= 1e3 * tol * np.maximum(target, 1.0))
         cols = n_s + idx[good]
         out["suction"][i, cols] = x[good]

@@ -174,6 +174,43 @@ def emit_result(obj, stream=None):
     stream.flush()
 
 
+def float_list(text):
+    """Comma-separated floats, for scene arguments (negatives allowed: "-1e-6,0,1e-4").
+
+    >>> float_list("-1e-6, 0,2.5,")
+    [-1e-06, 0.0, 2.5]
+    """
+    return [float(x) for x in text.split(",") if x.strip()]
+
+
+def two_fixed_spheres(r1, r2, gap, ip2, contact_law, capillary, *, detection=2.0, dt=1e-9):
+    """Set up the two-sphere test scenes: call after YADE is imported.
+
+    Two fixed spheres of radii ``r1``, ``r2`` [m] on the z axis (sphere 0 at the origin,
+    sphere 1 at surface gap ``gap`` [m] above it), one ``FrictMat``; engines: collider
+    and ``Ig2_Sphere_Sphere_ScGeom`` with detection factor ``detection``, the contact
+    physics ``ip2`` and law ``contact_law``, then the ``capillary`` engine, then
+    ``NewtonIntegrator(damping=0)``; time step ``dt``.  Returns the body ids ``(b0, b1)``.
+    """
+    import yade
+    from yade import utils, wrapper as w
+
+    O = yade.Omega()
+    mat = O.materials.append(w.FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5))
+    b0 = O.bodies.append(utils.sphere((0, 0, 0), r1, fixed=True, material=mat))
+    b1 = O.bodies.append(utils.sphere((0, 0, r1 + r2 + gap), r2, fixed=True, material=mat))
+    O.engines = [
+        w.ForceResetter(),
+        w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=detection)], verletDist=0),
+        w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=detection)],
+                          [ip2], [contact_law]),
+        capillary,
+        w.NewtonIntegrator(damping=0.0),
+    ]
+    O.dt = dt
+    return b0, b1
+
+
 def _json_default(o):
     try:
         import numpy as np

@@ -22,34 +22,19 @@ import yade  # noqa: E402
 from capbridge.dem_plugin.engine import suction_law2  # noqa: E402
 
 
-def _floats(text):
-    return [float(x) for x in text.split(",") if x.strip()]
-
-
 cli = argparse.ArgumentParser()
 cli.add_argument("--dir", required=True)
 cli.add_argument("--theta", type=float, required=True)
 cli.add_argument("--r", type=float, default=1e-3)
 cli.add_argument("--suction", type=float, required=True)
 cli.add_argument("--gamma", type=float, default=0.073)
-cli.add_argument("--gaps", type=_floats, required=True)
+cli.add_argument("--gaps", type=yade_runtime.float_list, required=True)
 cfg = cli.parse_args(sys.argv[1:])
 
 law = suction_law2(cfg.dir, cfg.theta, cfg.suction, cfg.gamma, export_if_missing=False)
 law.createDistantMeniscii = True          # wet the pair at its first position
-mat = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5))
-b0 = O.bodies.append(utils.sphere((0, 0, 0), cfg.r, fixed=True, material=mat))
-b1 = O.bodies.append(utils.sphere((0, 0, 2 * cfg.r + cfg.gaps[0]), cfg.r, fixed=True, material=mat))
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(aabbEnlargeFactor=2.0)], verletDist=0),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=2.0)],
-                    [Ip2_FrictMat_FrictMat_CapillaryPhys()],
-                    [Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)]),
-    law,
-    NewtonIntegrator(damping=0.0),
-]
-O.dt = 1e-9
+b0, b1 = yade_runtime.two_fixed_spheres(cfg.r, cfg.r, cfg.gaps[0], Ip2_FrictMat_FrictMat_CapillaryPhys(),
+                                        Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True), law)
 rows = []
 for gap in cfg.gaps:
     O.bodies[b1].state.pos = Vector3(0, 0, 2 * cfg.r + gap)

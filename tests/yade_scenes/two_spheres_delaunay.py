@@ -26,12 +26,6 @@ from yade.utils import *  # noqa: E402,F401,F403  (as the yade launcher does)
 import yade  # noqa: E402
 
 
-
-def _floats(text):
-    """Comma-separated floats (negative values allowed: "-1e-6,0,1e-4")."""
-    return [float(x) for x in text.split(",") if x.strip()]
-
-
 cli = argparse.ArgumentParser()
 cli.add_argument("--dir", required=True)
 cli.add_argument("--file", default="capillaryfile.txt", help="inputFilename")
@@ -39,34 +33,23 @@ cli.add_argument("--r1", type=float, default=1e-3)
 cli.add_argument("--r2", type=float, default=1e-3)
 cli.add_argument("--suction", type=float, required=True, help="u_gas - u_liquid [Pa]")
 cli.add_argument("--gamma", type=float, default=0.073)
-cli.add_argument("--gaps", type=_floats, required=True, help="comma-separated gaps [m]; < 0 = overlap")
-cli.add_argument("--volumes", type=_floats, default=None, help="comma-separated volumes [m^3]")
+cli.add_argument("--gaps", type=yade_runtime.float_list, required=True, help="comma-separated gaps [m]; < 0 = overlap")
+cli.add_argument("--volumes", type=yade_runtime.float_list, default=None, help="comma-separated volumes [m^3]")
 cfg = cli.parse_args(sys.argv[1:])
 if cfg.volumes is not None and len(cfg.volumes) != len(cfg.gaps):
     raise SystemExit("--volumes needs one value per gap")
 
 os.chdir(cfg.dir)
 
-mat = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5))
-b0 = O.bodies.append(utils.sphere((0, 0, 0), cfg.r1, fixed=True, material=mat))
-b1 = O.bodies.append(utils.sphere((0, 0, cfg.r1 + cfg.r2 + cfg.gaps[0]), cfg.r2,
-                                  fixed=True, material=mat))
 volume_mode = cfg.volumes is not None
 cap = CapillarityEngine(inputFilename=cfg.file, capillaryPressure=cfg.suction,
                         liquidTension=cfg.gamma, createDistantMeniscii=True,
                         interactionDetectionFactor=2.0,
                         imposePressure=not volume_mode, totalVolumeConstant=False,
                         label="cap")
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(aabbEnlargeFactor=2.0)], verletDist=0),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=2.0)],
-                    [Ip2_FrictMat_FrictMat_CapillaryPhysDelaunay()],
-                    [Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)]),
-    cap,
-    NewtonIntegrator(damping=0.0),
-]
-O.dt = 1e-9
+b0, b1 = yade_runtime.two_fixed_spheres(cfg.r1, cfg.r2, cfg.gaps[0],
+                                        Ip2_FrictMat_FrictMat_CapillaryPhysDelaunay(),
+                                        Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True), cap)
 
 rows = []
 if volume_mode:

@@ -24,12 +24,6 @@ from yade.utils import *  # noqa: E402,F401,F403  (as the yade launcher does)
 import yade  # noqa: E402
 
 
-
-def _floats(text):
-    """Comma-separated floats (negative values allowed: "-1e-6,0,1e-4")."""
-    return [float(x) for x in text.split(",") if x.strip()]
-
-
 cli = argparse.ArgumentParser()
 cli.add_argument("--dir", required=True, help="directory holding the M(r=...) files")
 cli.add_argument("--suffix", default="", help="suffCapFiles")
@@ -37,29 +31,18 @@ cli.add_argument("--r1", type=float, default=1e-3)
 cli.add_argument("--r2", type=float, default=1e-3)
 cli.add_argument("--suction", type=float, required=True, help="u_gas - u_liquid [Pa]")
 cli.add_argument("--gamma", type=float, default=0.073, help="surface tension [N/m]")
-cli.add_argument("--gaps", type=_floats, required=True, help="comma-separated gaps [m]; < 0 = overlap")
+cli.add_argument("--gaps", type=yade_runtime.float_list, required=True, help="comma-separated gaps [m]; < 0 = overlap")
 cli.add_argument("--mindlin", action="store_true", help="Hertz-Mindlin contact physics")
 cfg = cli.parse_args(sys.argv[1:])
 
 os.chdir(cfg.dir)  # YADE opens M(r=...)<suffix> relative to the working directory
 
-mat = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5))
-b0 = O.bodies.append(utils.sphere((0, 0, 0), cfg.r1, fixed=True, material=mat))
-b1 = O.bodies.append(utils.sphere((0, 0, cfg.r1 + cfg.r2 + cfg.gaps[0]), cfg.r2,
-                                  fixed=True, material=mat))
 ip2 = Ip2_FrictMat_FrictMat_MindlinCapillaryPhys() if cfg.mindlin else Ip2_FrictMat_FrictMat_CapillaryPhys()
 law = Law2_ScGeom_MindlinPhys_Mindlin(neverErase=True) if cfg.mindlin else Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(aabbEnlargeFactor=2.0)], verletDist=0),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=2.0)], [ip2], [law]),
-    Law2_ScGeom_CapillaryPhys_Capillarity(capillaryPressure=cfg.suction,
-                                          surfaceTension=cfg.gamma,
-                                          suffCapFiles=cfg.suffix,
-                                          createDistantMeniscii=True, label="cap"),
-    NewtonIntegrator(damping=0.0),
-]
-O.dt = 1e-9
+cap = Law2_ScGeom_CapillaryPhys_Capillarity(capillaryPressure=cfg.suction, surfaceTension=cfg.gamma,
+                                            suffCapFiles=cfg.suffix, createDistantMeniscii=True,
+                                            label="cap")
+b0, b1 = yade_runtime.two_fixed_spheres(cfg.r1, cfg.r2, cfg.gaps[0], ip2, law, cap)
 
 from capbridge.dem_plugin import yade_export  # noqa: E402
 
