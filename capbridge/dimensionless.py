@@ -133,6 +133,17 @@ def cap_volume(radius, beta):
     return np.pi * np.asarray(radius, float) ** 3 * v * v * (2.0 + np.cos(beta)) / 3.0
 
 
+def cap_height(radius, beta):
+    """Height of the spherical cap of half-angle ``beta`` [rad]: R (1 - cos b) = 2 R sin^2(b/2).
+
+    Written without cancellation, like :func:`cap_volume`.
+
+    >>> round(float(cap_height(2.0, np.pi / 2)), 12)
+    2.0
+    """
+    return 2.0 * np.asarray(radius, float) * np.sin(0.5 * np.asarray(beta, float)) ** 2
+
+
 def cap_area(radius, beta):
     """Area of the spherical cap of half-angle ``beta`` [rad]: 4 pi R^2 sin^2(b/2)."""
     return 4.0 * np.pi * np.asarray(radius, float) ** 2 * np.sin(0.5 * np.asarray(beta, float)) ** 2

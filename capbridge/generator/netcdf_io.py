@@ -22,7 +22,6 @@ import numpy as np
 import xarray as xr
 
 from capbridge.generator.atomic import atomic_target
-
 from capbridge.status import Status, cf_flag_attributes
 
 __all__ = ["write_table", "read_table", "table_solver_settings", "capbridge_version",

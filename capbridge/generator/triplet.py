@@ -49,6 +49,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import brentq
 
+from capbridge.dimensionless import centre_distance, opening_angle, triplet_centres
 from capbridge.status import Status
 from capbridge.validation import CapbridgeInputError, check_range
 
@@ -107,8 +108,8 @@ class TripletGeometry:
 
     def angle_at(self, i, j, k):
         """Angle jik [deg] at grain i between the centre lines to j and to k."""
-        c = float(self.axis(i, j) @ self.axis(i, k))
-        return float(np.degrees(np.arccos(np.clip(c, -1.0, 1.0))))
+        return float(np.degrees(opening_angle(self.gap(i, j), self.gap(i, k),
+                                              self.gap(j, k))))
 
     def as_dict(self):
         return {"d12": self.d12, "d13": self.d13, "d23": self.d23,
@@ -125,12 +126,14 @@ def triplet_geometry(d12, d13, d23):
     d = [float(check_range(name, v, 0.0, 10.0, hint="gap between sphere surfaces / r; "
                            "overlapping grains are not supported"))
          for name, v in (("d12", d12), ("d13", d13), ("d23", d23))]
-    a, b, c = (2.0 + x for x in d)          # |12|, |13|, |23|
-    if not (a + b > c and a + c > b and b + c > a):   # pragma: no cover (gaps >= 0)
-        raise CapbridgeInputError(f"gaps {d} do not form a triangle of centres")
-    x1 = (a * a - b * b) / (2.0 * c)
-    z1 = np.sqrt(max(a * a - (x1 + 0.5 * c) ** 2, 0.0))
-    centres = np.array([[x1, 0.0, z1], [-0.5 * c, 0.0, 0.0], [0.5 * c, 0.0, 0.0]])
+    try:    # grain 2 at the origin, grain 3 on +x, grain 1 at y > 0 ...
+        p = triplet_centres(d[2], d[0], d[1])
+    except ValueError:
+        raise CapbridgeInputError(f"gaps {d} do not form a triangle of centres") from None
+    # ... moved to this frame: grains 2 and 3 symmetric about x = 0, grain 1 at z > 0
+    half = 0.5 * p[1, 0]
+    centres = np.array([[p[2, 0] - half, 0.0, p[2, 1]], [-half, 0.0, 0.0],
+                        [half, 0.0, 0.0]])
     return TripletGeometry(d[0], d[1], d[2], centres)
 
 
@@ -166,10 +169,9 @@ def parse_bridges(spec):
 
 
 def _thetas(theta):
-    t = np.broadcast_to(check_range("contact angle theta", theta, 0.0, 90.0, high_open=True,
-                                    units=" deg", hint="the exact doublet solver covers "
-                                    "0 <= theta < 90 deg"), (3,)).astype(float)
-    return t
+    return np.broadcast_to(check_range("contact angle theta", theta, 0.0, 90.0, high_open=True,
+                                       units=" deg", hint="the exact doublet solver covers "
+                                       "0 <= theta < 90 deg"), (3,)).astype(float)
 
 
 def _fractions(fractions, n):
@@ -217,13 +219,12 @@ def uncoalesced_state(volume, geom, theta, bridges=((0, 1), (0, 2)), fractions=N
                        "beta_j": r["beta2"], "energy": r["energy"], "status": r["status"],
                        "volume": V * wb, "neck_radius": r["neck_radius"]}
         u = geom.axis(i, j)
-        F = np.where(r["status"] == Status.CONVERGED, r["force"], 0.0)
+        ok = r["status"] == Status.CONVERGED
+        F = np.where(ok, r["force"], 0.0)
         forces[..., i, :] += F[..., None] * u
         forces[..., j, :] -= F[..., None] * u
-        ok = r["status"] == Status.CONVERGED
         energy = energy + np.where(ok, r["energy"], 0.0)
-        bad = ~ok
-        status = np.where(bad & (status == Status.CONVERGED), r["status"], status)
+        status = np.where(~ok & (status == Status.CONVERGED), r["status"], status)
     return {"bridge": per, "forces": forces, "energy": np.where(status == 0, energy, np.nan),
             "status": status, "volume": V, "bridges": bridges, "fractions": w}
 
@@ -255,13 +256,12 @@ def bridge_meridian(gap, pressure, beta1, beta2, theta1, theta2=None, n=801):
     b1, b2, t1, t2 = (np.radians(float(v)) for v in (beta1, beta2, theta1, theta2))
     prof = yl.bridge_profile(h, b1, b2, t1, t2, 1.0)
     L = float(prof["length"])
-    _, _, _, B, nn, s1 = yl._roulette(np.float64(h), np.float64(b1), np.float64(t1))
     # arc length grid, denser near the ends
     u = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n)))
-    s = float(s1) + L * u
-    y, _, cosp = yl._point(nn, B, np.float64(h), s)
+    s = float(prof["s1"]) + L * u
+    y, _, cosp = yl._point(prof["n"], prof["B"], np.float64(h), s)
     x = np.cos(b1) + cumulative_trapezoid(cosp, s, initial=0.0)
-    end = np.hypot(x[-1] - (2.0 + gap), y[-1]) - 1.0
+    end = np.hypot(x[-1] - centre_distance(gap), y[-1]) - 1.0
     if not (np.isfinite(end) and abs(end) < 1e-6):
         raise ValueError(f"meridian does not close on sphere 2 (miss {end:.2e})")
     return x, y
@@ -345,16 +345,19 @@ def _at(st, n):
                        for b, r in st["bridge"].items()}}
 
 
+def _shared_grains(bridges):
+    """(bA, bB, g, j, k) for every two bridges g-j and g-k sharing a grain g."""
+    for bA, bB in itertools.combinations(bridges, 2):
+        shared = set(bA) & set(bB)
+        if shared:
+            g = shared.pop()
+            yield bA, bB, g, (bA[1] if bA[0] == g else bA[0]), (bB[1] if bB[0] == g else bB[0])
+
+
 def _margins(st, geom, t, bridges, shapes=True):
     out = []
     # caps meeting on shared grains
-    for bA, bB in itertools.combinations(bridges, 2):
-        shared = set(bA) & set(bB)
-        if not shared:
-            continue
-        g = shared.pop()
-        j = bA[1] if bA[0] == g else bA[0]
-        k = bB[1] if bB[0] == g else bB[0]
+    for bA, bB, g, j, k in _shared_grains(bridges):
         rA, rB = st["bridge"][bA], st["bridge"][bB]
         betaA = float(rA["beta_i"] if bA[0] == g else rA["beta_j"])
         betaB = float(rB["beta_i"] if bB[0] == g else rB["beta_j"])
@@ -512,15 +515,7 @@ def find_coalescence(geom, theta, bridges=((0, 1), (0, 2)), fractions=None, v_mi
 
 
 def _opening(geom, bridges):
-    out = {}
-    for bA, bB in itertools.combinations(bridges, 2):
-        shared = set(bA) & set(bB)
-        if shared:
-            g = shared.pop()
-            j = bA[1] if bA[0] == g else bA[0]
-            k = bB[1] if bB[0] == g else bB[0]
-            out[f"grain {g + 1}"] = geom.angle_at(g, j, k)
-    return out
+    return {f"grain {g + 1}": geom.angle_at(g, j, k) for _, _, g, j, k in _shared_grains(bridges)}
 
 
 # --------------------------------------------------------------------------------------

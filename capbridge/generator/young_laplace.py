@@ -89,7 +89,7 @@ import dataclasses
 
 import numpy as np
 
-from capbridge.dimensionless import cap_area, cap_volume
+from capbridge.dimensionless import cap_area, cap_height, cap_volume, centre_distance
 from capbridge.status import Status
 from capbridge.validation import check_range
 
@@ -219,8 +219,8 @@ def _shape(h, beta1, length, theta1, theta2, ratio, nodes=DEFAULT_NODES, integra
         axial = np.sum(wj * num / y, axis=-1)
         vol_rev = np.pi * np.sum(wj * y * num, axis=-1)
         area = 2.0 * np.pi * np.sum(wj * y, axis=-1)
-    # cos b - 1 = -2 sin^2(b/2): no cancellation for small caps on large spheres
-    gap = axial - 2.0 * np.sin(0.5 * b1) ** 2 - 2.0 * R * np.sin(0.5 * b2) ** 2
+    # cap heights as 2 R sin^2(b/2): no cancellation for small caps on large spheres
+    gap = axial - cap_height(1.0, b1) - cap_height(R, b2)
     volume = vol_rev - cap_volume(1.0, b1) - cap_volume(R, b2)
     energy = area - np.cos(t1) * cap_area(1.0, b1) - np.cos(t2) * cap_area(R, b2)
     # smallest radius of the free surface: the contact circles or a neck y = |n|
@@ -343,9 +343,9 @@ def _evaluate(z, pts, nodes, *, fixed_h=False, jac=True, integrals=True):
         vals["volume"] = p["volume"] / (np.tile(vscale, zz.shape[1] // N))
     base = {k: v[:N] for k, v in vals.items()}
     base["feasible"] = p["feasible"][:N]
-    if not jac:
-        return base, None, {k: v[:N] for k, v in p.items() if np.ndim(v)}
     shape = {k: v[:N] for k, v in p.items() if np.ndim(v)}
+    if not jac:
+        return base, None, shape
     dL = _derivs_L(shape, vscale)
     der = {}
     for key in vals:
@@ -452,11 +452,6 @@ def _max_step(z):
 # Equilibrium conditions, stability, and the families of equilibria
 # --------------------------------------------------------------------------------------
 
-# orientation of the determinants: both positive at contact (checked in the tests)
-_SIGN_FULL = {False: 1.0, True: 1.0}
-_SIGN_SYM = {False: 1.0, True: 1.0}
-
-
 def _constraint_key(sym):
     """Residual that makes a profile an equilibrium: Young's angle on grain 2, or for
     equal spheres and angles the midpoint slope (which keeps the mirror symmetry and
@@ -469,13 +464,14 @@ def _indicators(d, symmetric, fixed_h):
 
     full = det d(angle, gap[, volume])/d(unknowns); sym = the same with the midpoint
     slope in place of the angle (1 for points that are not symmetric).  Both are > 0
-    from contact to the end of the stable branch (module docstring).
+    from contact to the end of the stable branch (module docstring); their orientation
+    (positive at contact) is checked in the tests.
     """
     rows = ["gap"] if fixed_h else ["gap", "volume"]
     with np.errstate(invalid="ignore"):
         full = np.linalg.det(np.stack([d["angle"]] + [d[k] for k in rows], 1))
         symd = np.linalg.det(np.stack([d["sym"]] + [d[k] for k in rows], 1))
-    return _SIGN_FULL[fixed_h] * full, np.where(symmetric, _SIGN_SYM[fixed_h] * symd, 1.0)
+    return full, np.where(symmetric, symd, 1.0)
 
 
 class _Problem:
@@ -750,22 +746,28 @@ def _illinois(prob, walk, n_iter=60):
     return xa, walk["bracketed"] & (width < 1e-7)
 
 
-def _start_on_family(walk, x_end, gap_end, targets, cols=None):
-    """Starting unknowns for the target gaps from the walk's samples (gap rises on it).
+def _family_bracket(walk, x_end, gap_end, targets, cols=None):
+    """The walk's samples on either side of each target gap (gap rises on the walk).
 
-    ``cols`` maps each target to its family (default: one family per target).
+    ``x_end``/``gap_end`` close the walk (rupture or last sample); ``cols`` maps each
+    target to its family (default: one family per target).  Returns (x_lo, g_lo, x_hi,
+    g_hi), unknowns (m, n) and gaps (n,), with g_lo < target <= g_hi where the walk
+    brackets the target.
     """
     xs = np.array([s[0] for s in walk["samples"]] + [x_end])           # (K, m, F)
     gs = np.array([np.where(s[2], s[1], np.nan) for s in walk["samples"]] + [gap_end])
-    K = xs.shape[0]
     cols = np.arange(targets.size) if cols is None else cols
     gfill = np.fmax.accumulate(np.nan_to_num(gs, nan=-np.inf), axis=0)[:, cols]
-    k = np.clip(np.sum(gfill < targets[None, :], axis=0), 1, K - 1)
+    k = np.clip(np.sum(gfill < targets[None, :], axis=0), 1, xs.shape[0] - 1)
     pts_ = np.arange(targets.size)
-    g0, g1 = gfill[k - 1, pts_], gfill[k, pts_]
+    return xs[k - 1, :, cols].T, gfill[k - 1, pts_], xs[k, :, cols].T, gfill[k, pts_]
+
+
+def _start_on_family(bracket, targets):
+    """Starting unknowns for the target gaps: linear in the gap inside the bracket."""
+    x0, g0, x1, g1 = bracket
     with np.errstate(invalid="ignore", divide="ignore"):
         f = np.clip(np.where(g1 > g0, (targets - g0) / (g1 - g0), 0.0), 0.0, 1.0)
-    x0, x1 = xs[k - 1, :, cols].T, xs[k, :, cols].T
     return (1 - f) * x0 + f * x1
 
 
@@ -802,14 +804,15 @@ def _solve_on_family(prob, x_start, ok_start, out, idx_out):
         return
     x_end = np.where(ok_r, x_r, walk["x_lo"])
     g_end = np.where(ok_r, d_r, walk["samples"][-1][1])
-    x0 = _start_on_family(walk, x_end, g_end, pts.gap)[:, todo]
+    bracket = _family_bracket(walk, x_end, g_end, pts.gap)
+    x0 = _start_on_family(bracket, pts.gap)[:, todo]
     x, ok, iters, stable = prob.solve(x0, todo)
     good = ok & stable
     if not good.all():
         # next to a fold Newton converges slowly (the Jacobian is nearly singular):
         # find the target gap on the family itself, between the samples around it
         bad = todo[~good]
-        xb, okb = _gap_on_family(prob, walk, x_end, g_end, bad)
+        xb, okb = _gap_on_family(prob, bracket, bad)
         x[:, ~good], good[~good] = xb, okb
     good = np.flatnonzero(good)
     _store(out, idx_out[todo[good]], prob.full_z(x[:, good], todo[good]),
@@ -817,18 +820,14 @@ def _solve_on_family(prob, x_start, ok_start, out, idx_out):
     out["iterations"][idx_out[todo[good]]] = iters[good]
 
 
-def _gap_on_family(prob, walk, x_end, g_end, idx):
+def _gap_on_family(prob, bracket, idx):
     """Family points with the target gap of the points ``idx``: a root of
-    target - gap along the chord between the walk's samples that bracket it."""
+    target - gap along the chord between the walk's samples that bracket it
+    (``bracket`` from :func:`_family_bracket`, one family per point)."""
     N = prob.pts.size
     target = prob.pts.gap
-    xs = np.array([s[0] for s in walk["samples"]] + [x_end])
-    gs = np.array([np.where(s[2], s[1], np.nan) for s in walk["samples"]] + [g_end])
-    gfill = np.fmax.accumulate(np.nan_to_num(gs, nan=-np.inf), axis=0)
-    k = np.clip(np.sum(gfill < target[None, :], axis=0), 1, xs.shape[0] - 1)
-    cols = np.arange(N)
-    x_lo, x_hi = xs[k - 1, :, cols].T, xs[k, :, cols].T
-    f_lo, f_hi = target - gfill[k - 1, cols], target - gfill[k, cols]
+    x_lo, g_lo, x_hi, g_hi = bracket
+    f_lo, f_hi = target - g_lo, target - g_hi
     active = np.zeros(N, bool)
     active[idx] = (f_lo[idx] > 0) & (f_hi[idx] <= 0)
     xa, fa, xb, fb, _ = _chord_root(prob, x_lo, x_hi, f_lo, f_hi, active,
@@ -864,7 +863,7 @@ def _circle_bridge(beta1, gap, t1, t2, R):
     arc's midpoint and L its arc length: a starting point for any radius ratio and
     pair of angles (the Derjaguin toroid only knows equal spheres and one angle).
     """
-    D = 1.0 + R + gap
+    D = centre_distance(gap, R)
     cb, sb = np.cos(beta1), np.sin(beta1)
     a1 = beta1 + t1
     den = 2.0 * (np.cos(t1) - D * np.cos(a1) - R * np.cos(t2))
@@ -898,15 +897,15 @@ def _circle_bridge(beta1, gap, t1, t2, R):
 _GRID = np.concatenate([np.geomspace(1e-3, 0.04, 16), np.linspace(0.05, 1.0, 56)])
 
 
-def _circle_grid(pts, gap):
+def _circle_grid(pts):
     """The circular-meridian bridges on a grid of beta1 (rows: points), geometric below
     4 % of the largest angle so that tiny bridges (V* ~ 1e-8) are resolved."""
     frac = _GRID
     bmax = np.minimum(_BETA1_MAX - 0.02, np.pi - pts.theta1 - 0.2)
     beta = bmax[:, None] * frac
     col = lambda a: np.asarray(a, float)[:, None]  # noqa: E731
-    vol, h, L, b2, ok = _circle_bridge(beta, col(gap), col(pts.theta1), col(pts.theta2),
-                                       col(pts.ratio))
+    vol, h, L, b2, ok = _circle_bridge(beta, col(pts.gap), col(pts.theta1),
+                                       col(pts.theta2), col(pts.ratio))
     return beta, vol, h, L, ok
 
 
@@ -916,10 +915,11 @@ def _interp_rows(k, f, *arrays):
     return [a[rows, k] + f * (a[rows, k + 1] - a[rows, k]) for a in arrays]
 
 
-def _volume_guess(gap, volume, pts):
-    """Starting (h, beta1, L): the circular-meridian bridge holding ``volume`` at ``gap``
-    (the smallest beta1 that does)."""
-    beta, vol, h, L, ok = _circle_grid(pts, gap)
+def _volume_guess(pts):
+    """Starting (h, beta1, L): the circular-meridian bridge holding the volume at the gap
+    of ``pts`` (the smallest beta1 that does)."""
+    gap, volume = pts.gap, pts.volume
+    beta, vol, h, L, ok = _circle_grid(pts)
     n_beta = beta.shape[1]
     v = np.where(ok & (vol > 0), vol, -np.inf)
     above = v >= volume[:, None]
@@ -938,10 +938,12 @@ def _volume_guess(gap, volume, pts):
     return np.vstack([np.where(bad, 0.0, hh), b, np.where(bad, 0.1, LL)])
 
 
-def _suction_guess(gap, h, pts):
-    """Starting (beta1, L) at fixed mean curvature h: the circular-meridian bridge whose
-    midpoint curvature is h, on the branch connected to contact (the largest beta1)."""
-    beta, vol, hg, L, ok = _circle_grid(pts, gap)
+def _suction_guess(pts):
+    """Starting (beta1, L) at the fixed mean curvature h of ``pts``: the circular-meridian
+    bridge whose midpoint curvature is h, on the branch connected to contact (the
+    largest beta1)."""
+    gap, h = pts.gap, pts.h
+    beta, vol, hg, L, ok = _circle_grid(pts)
     n_beta = beta.shape[1]
     f = np.where(ok, hg - h[:, None], np.nan)
     cross = ((np.sign(f[:, 1:]) != np.sign(f[:, :-1]))
@@ -1028,8 +1030,8 @@ _DIRECT_ITER = 20
 
 def _guess(pts, fixed_h):
     if fixed_h:
-        return _suction_guess(pts.gap, pts.h, pts)
-    return _volume_guess(pts.gap, pts.volume, pts)
+        return _suction_guess(pts)
+    return _volume_guess(pts)
 
 
 def _contact_state(pts, sym, settings, fixed_h, n_continuation=10):
@@ -1175,7 +1177,8 @@ def _solve_suction_batch(idx, pts, sym, settings, out):
     todo = np.flatnonzero(ok_r[inv] & ~no_bridge)
     if not todo.size:
         return
-    x0 = _start_on_family(walk, x_r, d_max, sub.gap[todo], cols=inv[todo])
+    x0 = _start_on_family(_family_bracket(walk, x_r, d_max, sub.gap[todo], cols=inv[todo]),
+                          sub.gap[todo])
     prob = _Problem(sub, sym, settings, True)
     x, ok, iters, stable = prob.solve(x0, todo)
     good = np.flatnonzero(ok & stable)

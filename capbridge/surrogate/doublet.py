@@ -88,6 +88,7 @@ class DoubletSurrogate:
         self.logv_axis_ = _Axis(lv[0], lv[-1], (len(lv) - 1) * self.refine + 1)
         self.s_axis_ = _Axis(self.s_[0], self.s_[-1], (len(self.s_) - 1) * self.refine + 1)
         self._fine = {}
+        self._ratio_basis = None
         self.holdout_ = {k: v for k, v in ds.attrs.items() if k.startswith("holdout_")}
         return self
 
@@ -158,9 +159,7 @@ class DoubletSurrogate:
         gap, volume, theta, ratio, status = self._validate(gap, volume, theta, ratio)
         shape = status.shape
         g, v, t, r = (np.broadcast_to(a, shape).ravel() for a in (gap, volume, theta, ratio))
-        out = {name: np.empty(g.size) for name in tuple(variables) + ("rupture_gap",)}
-        for name in out:
-            out[name][:] = 0.0
+        out = {name: np.zeros(g.size) for name in tuple(variables) + ("rupture_gap",)}
         # on a tabulated ratio: that slice alone; between: a cubic spline across the
         # ratio slices (in log ratio), as linear weights on every slice's prediction
         j = np.argmin(np.abs(np.log(r)[:, None] - np.log(self.ratios_)[None, :]), axis=1)
@@ -213,11 +212,15 @@ class DoubletSurrogate:
                 "beta2": res["beta2"], "rupture_gap": si["gap"], "status": res["status"]}
 
     def _ratio_weights(self, ratio):
-        """Weights of each ratio slice in the spline through them, at ``ratio``."""
-        n = len(self.ratios_)
-        k = min(3, n - 1)
-        basis = make_interp_spline(np.log(self.ratios_), np.eye(n), k=k, axis=0)
-        return basis(np.log(ratio))
+        """Weights of each ratio slice in the spline through them, at ``ratio``.
+
+        The spline basis depends on the table only: built once per fit, on first use.
+        """
+        if getattr(self, "_ratio_basis", None) is None:
+            n = len(self.ratios_)
+            self._ratio_basis = make_interp_spline(np.log(self.ratios_), np.eye(n),
+                                                   k=min(3, n - 1), axis=0)
+        return self._ratio_basis(np.log(ratio))
 
     def _predict_slice(self, jr, gap, volume, theta, variables):
         """Trilinear lookup on the fine grid of ratio slice ``jr``."""
