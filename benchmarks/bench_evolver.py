@@ -41,7 +41,6 @@ coarse settings; counts of converged and flagged points and a histogram of the r
 from __future__ import annotations
 
 import argparse
-import collections
 import json
 import os
 import platform
@@ -69,7 +68,6 @@ POINTS = {
 
 
 def _machine():
-    import numpy
     cpu = "unknown CPU"
     try:
         with open("/proc/cpuinfo") as fh:
@@ -84,7 +82,7 @@ def _machine():
     except OSError:
         load = (np.nan,) * 3
     return dict(cpu=cpu, cores=os.cpu_count(), python=platform.python_version(),
-                numpy=numpy.__version__, load=[round(x, 2) for x in load],
+                numpy=np.__version__, load=[round(x, 2) for x in load],
                 evolver=_evolver_version())
 
 
@@ -111,17 +109,6 @@ def problem(pt):
     return make_problem(triplet_centres(*GAPS), 1.0, p["theta"], p["volume"], "coalesced")
 
 
-def component(pt):
-    """(grain, u): reported force = F[grain] . u (attraction > 0)."""
-    from capbridge.generator.evolver.protocols import reported_component
-    return reported_component(problem(pt))
-
-
-def paper_move(pt):
-    from capbridge.generator.evolver.protocols import paper_stretch
-    return paper_stretch(problem(pt))
-
-
 def settings(**kw):
     from capbridge.generator.evolver import Settings
     base = dict(workers=1, level_timeout=4 * 3600.0, total_timeout=12 * 3600.0)
@@ -131,11 +118,13 @@ def settings(**kw):
 
 def run_ours(pt, all_forces=False, **kw):
     from capbridge.generator.evolver import minimise
-    g, u = component(pt)
+    from capbridge.generator.evolver.protocols import reported_component
+    pb = problem(pt)
+    g, u = reported_component(pb)      # reported force = F[g] . u (attraction > 0)
     if not all_forces:
         kw["vw_components"] = [(g, u)]
     t0 = time.monotonic()
-    r = minimise(problem(pt), settings(**kw))
+    r = minimise(pb, settings(**kw))
     F = float(r.forces[g] @ u) if r.forces is not None else np.nan
     est = float(np.abs(r.force_error[g]) @ np.abs(u)) if r.force_error is not None else np.nan
     return dict(status=r.status.name.lower(), reason=r.reason, force=F, error_estimate=est,
@@ -150,9 +139,10 @@ def run_ours(pt, all_forces=False, **kw):
 
 
 def run_paper(pt, n_refine):
-    from capbridge.generator.evolver.protocols import forward_difference_force
-    grain, d, sign = paper_move(pt)
-    r = forward_difference_force(problem(pt), grain, d, delta=PAPER_DELTA, n_refine=n_refine,
+    from capbridge.generator.evolver.protocols import forward_difference_force, paper_stretch
+    pb = problem(pt)
+    grain, d, sign = paper_stretch(pb)
+    r = forward_difference_force(pb, grain, d, delta=PAPER_DELTA, n_refine=n_refine,
                                  ngrad_between=36, ngrad_after=1400)
     return dict(ok=r.ok, reason=r.reason, force=sign * r.force if r.ok else np.nan,
                 cpu=r.cpu_time, wall=r.wall_time, n_facets=r.base.n_facets,
@@ -172,10 +162,12 @@ def run_reference(pt):
                     secant=(float(r1["energy"]) - float(r0["energy"])) / PAPER_DELTA
                     / (2 * np.pi))
     from capbridge.generator.evolver import minimise
+    from capbridge.generator.evolver.protocols import paper_stretch
     ref = _study_reference(pt) or run_ours(pt, max_refine=REF_LEVEL, min_refine=REF_LEVEL,
                                            etol=0.0, ftol=0.0)
-    grain, d, sign = paper_move(pt)
-    moved = minimise(problem(pt).moved(grain, PAPER_DELTA * d),
+    pb = problem(pt)
+    grain, d, sign = paper_stretch(pb)
+    moved = minimise(pb.moved(grain, PAPER_DELTA * d),
                      settings(max_refine=REF_LEVEL, min_refine=REF_LEVEL, etol=0.0,
                               ftol=0.0, virtual_work=False))
     secant = (sign * -(moved.energy_extrapolated - ref["energy_extrapolated"])
@@ -193,7 +185,7 @@ def _study_reference(pt):
     """The same refined computation from the convergence study, if it is there (the
     paper's triplet, coalesced, V* = 16/64, theta = 0: our method to level 5, the
     vertical component only), Richardson-extrapolated over its levels."""
-    from capbridge.generator.evolver.minimise import _richardson_array
+    from capbridge.generator.evolver.minimise import _richardson, _richardson_array
     p = POINTS[pt]
     if not (p["kind"] == "trimer" and abs(p["volume"] - 16 / 64) < 1e-12 and p["theta"] == 0):
         return None
@@ -201,9 +193,8 @@ def _study_reference(pt):
     if not d or len(d.get("levels", [])) < 3 or d["levels"][-1]["level"] < 5:
         return None
     lv = d["levels"]
-    Fx, Fe, p_ = _richardson_array([np.array([r["force"]]) for r in lv])
+    Fx, Fe, _ = _richardson_array([np.array([r["force"]]) for r in lv])
     # energies: Richardson over the same levels (for the secant)
-    from capbridge.generator.evolver.minimise import _richardson
     Ex, _, _ = _richardson([r["energy"] for r in lv], 1.0)
     return dict(force=float(Fx[0]), error_estimate=float(Fe[0]), level=lv[-1]["level"],
                 n_facets=lv[-1]["n_facets"], energy_extrapolated=Ex, cpu=d.get("cpu"),
@@ -489,7 +480,7 @@ STRESS = dict(max_refine=2, tol=1e-2, reasons_dir=None)
 def solve_stress_chunk(index, d12, d13, d23, volume, theta, topology):
     """run_sweep solver: one or more stress points, serially (one Evolver at a time)."""
     from capbridge.generator.evolver import minimise
-    from capbridge.status import Status
+    from capbridge.status import Status, status_name
     n = len(index)
     out = {k: np.full(n, np.nan) for k in ("cpu", "wall", "force_error_rel", "balance",
                                             "n_facets", "refinement", "direct_vs_vw_rel")}
@@ -524,7 +515,7 @@ def solve_stress_chunk(index, d12, d13, d23, volume, theta, topology):
         if STRESS["reasons_dir"]:
             with open(os.path.join(STRESS["reasons_dir"], f"{int(index[m]):04d}.json"),
                       "w") as fh:
-                json.dump(dict(index=int(index[m]), status=Status(int(status)).name.lower(),
+                json.dump(dict(index=int(index[m]), status=status_name(status),
                                category=REASONS[out["reason_code"][m]], reason=reason,
                                warnings=warns), fh)
     return out

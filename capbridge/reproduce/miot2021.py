@@ -35,6 +35,7 @@ instead).
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 import hashlib
@@ -47,13 +48,14 @@ from pathlib import Path
 import numpy as np
 
 from capbridge.dimensionless import bond_number, force_scale
-from capbridge.status import Status
+from capbridge.status import Status, status_name
 
 RADIUS = 4e-3                      # m
-UL_PER_VSTAR = 64.0                # (4 mm)^3 in ul
+UL_PER_VSTAR = (RADIUS * 1e3) ** 3  # (4 mm)^3 = 64 ul
 D12 = D13 = 0.175
 D23 = 0.075
 GAMMAS = (0.073, 0.0693)           # N/m
+FIG3_VOLUMES = (0.008, 0.156)      # V* of the doublets of Fig. 3
 #: kinds of Evolver points
 DOUBLET, COALESCED, BRIDGES = 0, 1, 2
 KIND_NAMES = {DOUBLET: "doublet", COALESCED: "coalesced", BRIDGES: "bridges"}
@@ -68,6 +70,16 @@ PAPER = {
     "convergence_5_7_max_pct": 0.35,
     "convergence_6_7_max_pct": 0.07,
 }
+
+
+def paper_line(theta):
+    """The paper's linear V_coal(theta) [ul]: V0 + theta / dtheta * dV (:data:`PAPER`)."""
+    f = PAPER["V_coal_fit"]
+    return f["V0"] + theta / f["dtheta"] * f["dV"]
+
+
+#: the paper's line in words (figure legend, CLAIMS.md)
+PAPER_LINE_TEXT = "{V0:g} + theta/{dtheta:g} x {dV:g}".format(**PAPER["V_coal_fit"])
 
 
 def vstar(ul):
@@ -102,7 +114,6 @@ class Plan:
     energy_fractions: tuple = (0.6, 0.75, 0.9)
     #: further probes (own stage) where the coalesced body still exists at 0.6 V_coal
     energy_low: tuple = ((45.0, 60.0, 75.0), (0.3, 0.45))
-    coalesced_gravity: bool = True
 
     @classmethod
     def make(cls, quick=False, max_refine=None):
@@ -114,7 +125,7 @@ class Plan:
                     doublet_refine=2, doublet_points=((0.156, (0.1,)),),
                     gravity={0.073: (0.0,)}, gravity_dense=(0.0,), bias_points=0,
                     bias_levels=(), energy_low=((), ()),
-                    energy_fractions=(), coalesced_gravity=True)
+                    energy_fractions=())
         if max_refine is not None:
             p.max_refine = int(max_refine)
         return p
@@ -192,8 +203,14 @@ def solve_points(kind, theta, volume, bond, gap, level, shapes_dir=None):
 _IN_NAMES = ("kind", "theta", "volume", "bond", "gap", "level")
 
 
+def _cache_key(values):
+    """Inputs of a point rounded to 12 digits: a V_coal that moved by round-off (another
+    order of the same operations) finds its finished point instead of a new Evolver run."""
+    return tuple(float(f"{float(x):.12g}") for x in values)
+
+
 def _cached_points(stage, ckroot):
-    """Finished points of earlier sweeps of ``stage`` (any plan): input tuple -> outputs."""
+    """Finished points of earlier sweeps of ``stage`` (any plan): input key -> outputs."""
     out = {}
     if ckroot is None:
         return out
@@ -202,7 +219,7 @@ def _cached_points(stage, ckroot):
             try:
                 with np.load(f) as z:
                     for m in range(len(z["in__kind"])):
-                        key = tuple(float(z[f"in__{n}"][m]) for n in _IN_NAMES)
+                        key = _cache_key(z[f"in__{n}"][m] for n in _IN_NAMES)
                         out[key] = {k[5:]: z[k][m] for k in z.files if k.startswith("out__")}
             except (OSError, KeyError, ValueError):
                 continue
@@ -224,7 +241,7 @@ def _sweep(stage, points, ckroot, shapes_dir, progress):
     if not points:
         return pd.DataFrame(columns=cols)
     cache = _cached_points(stage, ckroot)
-    keys = [tuple(float(p[n]) for n in _IN_NAMES) for p in points]
+    keys = [_cache_key(p[n] for n in _IN_NAMES) for p in points]
     todo = [p for p, k in zip(points, keys) if k not in cache]
     if todo:
         inputs = {name: np.array([p[name] for p in todo], dtype=np.int64 if name in
@@ -240,11 +257,11 @@ def _sweep(stage, points, ckroot, shapes_dir, progress):
                         progress=progress, desc=f"miot2021 {stage}",
                         settings={"stage": stage})
         for m in range(len(todo)):
-            key = tuple(float(res[n][m]) for n in _IN_NAMES)
+            key = _cache_key(res[n][m] for n in _IN_NAMES)
             cache[key] = {k: res[k][m] for k in res if k not in _IN_NAMES}
     rows = []
-    for k in keys:
-        r = dict(zip(_IN_NAMES, k))
+    for p, k in zip(points, keys):
+        r = {n: float(p[n]) for n in _IN_NAMES}
         r.update({n: cache[k].get(n, np.nan) for n in ("status", *_OUT_NAMES)})
         rows.append(r)
     df = pd.DataFrame(rows, columns=cols)
@@ -252,7 +269,7 @@ def _sweep(stage, points, ckroot, shapes_dir, progress):
     df["level"] = df["level"].astype(int)
     df["status"] = df["status"].astype(int)
     df["V_ul"] = ul(df["volume"])
-    df["status_name"] = [Status(int(s)).name.lower() for s in df["status"]]
+    df["status_name"] = [status_name(s) for s in df["status"]]
     return df
 
 
@@ -310,19 +327,19 @@ def exact_stage(plan, log):
         for v, f, s, e, b in zip(V, F, st["status"], st["energy"],
                                  st["bridge"][(0, 1)]["beta_i"]):
             curves.append({"theta_deg": t, "V_ul": v, "F_top_star": f if s == 0 else np.nan,
-                           "status": Status(int(s)).name.lower(), "E_star": e,
+                           "status": status_name(s), "E_star": e,
                            "beta_top_deg": b, "at_coalescence": bool(v == ul(vc[t]))})
     return dfv, fit, fit_low, pd.DataFrame(curves), vc, alpha
 
 
-def doublet_exact(plan):
+def doublet_exact():
     import pandas as pd
 
     from capbridge.generator.young_laplace import rupture_distance, solve_doublet
     from capbridge.surrogate import closed_forms as cf
 
     rows = []
-    for V in (0.008, 0.156):
+    for V in FIG3_VOLUMES:
         dr = float(rupture_distance(V, 0.0)["gap"])
         d = np.linspace(0.0, min(dr * 0.999, 0.6), 121)
         ex = solve_doublet(d, V, 0.0)
@@ -344,6 +361,11 @@ def doublet_exact(plan):
 
 def _grid_above(plan, v_ul):
     return [g for g in plan.grid_ul if g > v_ul + 0.25]
+
+
+def _grid_below(plan, v_ul):
+    """Grid volumes for separate bridges: up to 1 ul past ``v_ul`` (V_coal)."""
+    return [g for g in plan.grid_ul if g <= v_ul + 1.0]
 
 
 def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progress=True,
@@ -373,7 +395,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
     # ---- exact ------------------------------------------------------------------------
     t0 = time.monotonic()
     dfv, fit, fit_low, curves, vc, alpha = exact_stage(plan, log)
-    dfd = doublet_exact(plan)
+    dfd = doublet_exact()
     timings["exact"] = time.monotonic() - t0
 
     # ---- doublets (Fig. 3) -----------------------------------------------------------
@@ -411,7 +433,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
     t0 = time.monotonic()
     pts = []
     for t in plan.thetas:
-        below = [g for g in plan.grid_ul if g <= ul(vc[t]) + 1.0]
+        below = _grid_below(plan, ul(vc[t]))
         # theta = 0: every volume (the gravity-free baseline of Figs. 11/13 at the same
         # mesh level); other angles: the last few (mesh bias of V_coal)
         n_b = len(below) if (t == 0 and plan.bias_points) else plan.bias_points
@@ -423,7 +445,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
                         level=lev))
     for gam, ts in plan.gravity.items():
         for t in ts:
-            below = [g for g in plan.grid_ul if g <= ul(vc[t]) + 1.0]
+            below = _grid_below(plan, ul(vc[t]))
             if t not in plan.gravity_dense:
                 below = sorted(set(g for g in below if g % 4 == 0) | set(below[-3:]))
             for v in below:
@@ -463,19 +485,18 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
     # ---- coalesced with gravity -------------------------------------------------------
     t0 = time.monotonic()
     pts = []
-    if plan.coalesced_gravity:
-        for gam, ts in plan.gravity.items():
-            for t in ts:
-                v0 = vc_grav[(gam, t)]
-                if not np.isfinite(v0):
-                    v0 = ul(vc[t])
-                v0 = round(float(v0), 3)
-                above = _grid_above(plan, v0)
-                if t not in plan.gravity_dense:
-                    above = [g for g in above if g % 4 == 0]
-                for v in [v0] + above:
-                    pts.append(dict(kind=COALESCED, theta=t, volume=float(vstar(v)),
-                                    bond=bonds[gam], gap=0.0, level=L))
+    for gam, ts in plan.gravity.items():
+        for t in ts:
+            v0 = vc_grav[(gam, t)]
+            if not np.isfinite(v0):
+                v0 = ul(vc[t])
+            v0 = round(float(v0), 3)
+            above = _grid_above(plan, v0)
+            if t not in plan.gravity_dense:
+                above = [g for g in above if g % 4 == 0]
+            for v in [v0] + above:
+                pts.append(dict(kind=COALESCED, theta=t, volume=float(vstar(v)),
+                                bond=bonds[gam], gap=0.0, level=L))
     dfcg = _sweep("coalesced-gravity", pts, ck, shapes, progress)
     timings["coalesced_gravity"] = time.monotonic() - t0
 
@@ -483,7 +504,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
                                                 curves=curves, vc=vc, alpha=alpha, dfd=dfd,
                                                 dfdv=dfdv, dfc0=dfc0, dfb=dfb, dfg=dfg,
                                                 dfcg=dfcg, bonds=bonds, vc_grav=vc_grav,
-                                                shapes=shapes), log)
+                                                shapes=shapes))
     timings["total"] = time.monotonic() - t_start
     summary["timings_s"] = {k: round(v, 1) for k, v in timings.items()}
     summary["command"] = ("capbridge reproduce miot2021" + (" --quick" if quick else "")
@@ -575,6 +596,12 @@ def _split_at_coalescence(rows, v_coal):
     return rows[~past], rows[past]
 
 
+def _exact_force_at_coalescence(curves, theta):
+    """F* on the top grain from the exact separate bridges at V_coal(theta)."""
+    return float(curves[(curves["theta_deg"] == theta)
+                        & curves["at_coalescence"]]["F_top_star"].iloc[0])
+
+
 def _jumps(R):
     """Force on the top grain just before / after coalescence."""
     import pandas as pd
@@ -586,8 +613,7 @@ def _jumps(R):
         after = c0[(c0["theta"] == t) & (np.isclose(c0["volume"], v)) & (c0["status"] == 0)]
         if not len(after):
             continue
-        before = float(R["curves"][(R["curves"]["theta_deg"] == t)
-                                   & R["curves"]["at_coalescence"]]["F_top_star"].iloc[0])
+        before = _exact_force_at_coalescence(R["curves"], t)
         fa = float(after["F_top"].iloc[0])
         rows.append({"theta_deg": t, "gravity": False, "gamma_N_m": np.nan, "bond": 0.0,
                      "V_coal_ul": ul(v), "F_before_star": before, "F_after_star": fa,
@@ -650,9 +676,7 @@ def _energies(R):
     return pd.DataFrame(rows), cross
 
 
-def analyse_and_write(out, plan, R, log):
-    import pandas as pd
-
+def analyse_and_write(out, plan, R):
     ft = _force_table(R)
     ft.to_csv(out / "triplet_forces.csv", index=False, float_format="%.6g")
     R["dfv"].to_csv(out / "coalescence_volumes.csv", index=False, float_format="%.6g")
@@ -672,20 +696,20 @@ def analyse_and_write(out, plan, R, log):
     b = R["dfb"]
     b[b["kind"] == BRIDGES].to_csv(out / "evolver_bridges.csv", index=False,
                                    float_format="%.6g")
-    figs = make_figures(out, plan, R, ft, jumps, en)
-    summary = build_summary(plan, R, ft, jumps, en, cross)
+    figs = make_figures(out, plan, R, ft, en)
+    summary = build_summary(plan, R, ft, jumps, cross)
     summary["figures"] = figs
     summary["files"] = sorted(p.name for p in out.iterdir() if p.suffix in (".csv", ".png"))
     return summary
 
 
-def build_summary(plan, R, ft, jumps, en, cross):
+def build_summary(plan, R, ft, jumps, cross):
     from capbridge.generator.triplet_evolver import coalescence_from_cap_gaps
 
     fit, fit_low = R["fit"], R["fit_low"]
     vc = R["vc"]
     s = {"quick": plan.quick, "max_refine": plan.max_refine, "alpha_deg": R["alpha"],
-         "geometry": {"r_mm": 4.0, "d12": D12, "d13": D13, "d23": D23},
+         "geometry": {"r_mm": RADIUS * 1e3, "d12": D12, "d13": D13, "d23": D23},
          "bond_numbers": R["bonds"],
          "V_coal_exact_ul": {float(t): ul(v) for t, v in vc.items()},
          "V_coal_fit": fit.as_dict(),
@@ -700,7 +724,7 @@ def build_summary(plan, R, ft, jumps, en, cross):
                                             "rel_err_pct", "status_name"]].to_dict(
             orient="records")
     dd = R["dfd"]
-    for V in (0.008, 0.156):
+    for V in FIG3_VOLUMES:
         sel = dd[(dd["V_star"] == V) & (dd["d_star"] <= 0.8 * dd["d_rupture"])]
         for name in ("willett_outside_range", "richefeu", "pitois"):
             col = f"F_{name}"
@@ -712,8 +736,7 @@ def build_summary(plan, R, ft, jumps, en, cross):
     bias = b[(b["theta"] == 0) & (b["bond"] == 0) & np.isclose(b["volume"], vc[0.0])]
     s["theta0_cap_gap_at_exact_V_coal_by_level"] = {
         int(r["level"]): r["cap_gap"] for _, r in bias.iterrows() if r["status"] == 0}
-    ex_top = float(R["curves"][(R["curves"]["theta_deg"] == 0)
-                               & R["curves"]["at_coalescence"]]["F_top_star"].iloc[0])
+    ex_top = _exact_force_at_coalescence(R["curves"], 0.0)
     s["theta0_force_at_V_coal_by_level"] = {
         "exact": ex_top,
         **{int(r["level"]): {"F_top": r["F_top"], "err_vs_exact_pct":
@@ -744,7 +767,7 @@ def build_summary(plan, R, ft, jumps, en, cross):
     if len(cu) >= 3:
         x, y = cu["V_ul"].to_numpy()[-3:], cu["beta_top_deg"].to_numpy()[-3:]
         s["beta_slope_theta0_deg_per_ul"] = float(np.polyfit(x, y, 1)[0])
-    line = {float(t): ul(v) - (14.5 + t / 90 * 18) for t, v in vc.items()}
+    line = {float(t): ul(v) - paper_line(t) for t, v in vc.items()}
     s["V_coal_minus_paper_line_ul"] = line
     # gravity effect on force, theta = 0, gamma = 0.073 (against Evolver without gravity
     # at the same mesh level where available, else the exact doublets)
@@ -787,23 +810,37 @@ def build_summary(plan, R, ft, jumps, en, cross):
     s["lower_meniscus"] = zl
     s["pair_residual_max_nogravity"] = float(np.nanmax(c0["pair_residual"])) if len(c0) else None
     s["force_sum_max_nogravity"] = float(np.nanmax(c0["force_sum"])) if len(c0) else None
+    frames = (R["dfdv"], c0, b, cg)
+    by_status = collections.Counter(n for df in frames for n in df.get("status_name", []))
     s["evolver_points"] = {
-        "total": int(len(R["dfdv"]) + len(c0) + len(b) + len(cg)),
-        "converged": int((R["dfdv"]["status"] == 0).sum() + (c0["status"] == 0).sum()
-                         + (b["status"] == 0).sum() + (cg["status"] == 0).sum()),
-        "by_status": {}}
-    for df in (R["dfdv"], c0, b, cg):
-        for n in df.get("status_name", []):
-            s["evolver_points"]["by_status"][n] = s["evolver_points"]["by_status"].get(n, 0) + 1
-    # time of every Evolver point, whichever run computed it (checkpoints are reused)
-    s["evolver_points"]["wall_h"] = float(sum(np.nansum(df["wall"]) for df in
-                                              (R["dfdv"], c0, b, cg) if len(df))) / 3600
-    s["evolver_points"]["cpu_h"] = float(sum(np.nansum(df["cpu"]) for df in
-                                             (R["dfdv"], c0, b, cg) if len(df))) / 3600
+        "total": int(sum(len(df) for df in frames)),
+        "converged": int(sum((df["status"] == 0).sum() for df in frames)),
+        "by_status": dict(by_status),
+        # time of every Evolver point, whichever run computed it (checkpoints are reused)
+        "wall_h": float(sum(np.nansum(df["wall"]) for df in frames if len(df))) / 3600,
+        "cpu_h": float(sum(np.nansum(df["cpu"]) for df in frames if len(df))) / 3600}
     return s
 
 
-def make_figures(out, plan, R, ft, jumps, en):
+def _save_figure(fig, out, name):
+    """Lay out, write ``out/name`` (120 dpi) and close ``fig``; returns ``name``."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=120)
+    plt.close(fig)
+    return name
+
+
+def _volume_axes(ax, ylabel, title, title_size=None):
+    """Total volume on x, ``ylabel`` on y, ``title``, legend."""
+    ax.set_xlabel("total volume V [ul]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, **({} if title_size is None else {"fontsize": title_size}))
+    ax.legend(fontsize=7)
+
+
+def make_figures(out, plan, R, ft, en):
     import matplotlib.pyplot as plt
 
     figs = []
@@ -813,10 +850,16 @@ def make_figures(out, plan, R, ft, jumps, en):
     def col(t):
         return cmap(float(t) / 90.0)
 
+    def by_theta(ax, t, two, y_two, coalesced, y_coalesced, label):
+        """One angle: two bridges (line), coalesced body (circles), V_coal (dotted)."""
+        ax.plot(two["V_ul"], two[y_two], "-", color=col(t), label=label)
+        ax.plot(coalesced["V_ul"], coalesced[y_coalesced], "o--", mfc="none", color=col(t))
+        ax.axvline(ul(R["vc"][t]), color=col(t), lw=0.5, ls=":")
+
     # Fig. 3: doublets
     dd, dv = R["dfd"], R["dfdv"]
     fig, axs = plt.subplots(1, 2, figsize=(10, 4))
-    for ax, V in zip(axs, (0.008, 0.156)):
+    for ax, V in zip(axs, FIG3_VOLUMES):
         s = dd[dd["V_star"] == V]
         ax.plot(s["d_star"], s["F_exact"], "g--", label="exact Young-Laplace")
         if V < 0.01:
@@ -835,10 +878,7 @@ def make_figures(out, plan, R, ft, jumps, en):
         ax.set_xlabel("d*")
         ax.set_ylabel("F* = F / (2 pi gamma r)")
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "fig03_doublet.png", dpi=120)
-    plt.close(fig)
-    figs.append("fig03_doublet.png")
+    figs.append(_save_figure(fig, out, "fig03_doublet.png"))
 
     # Figs. 6/9: force on the top grain against volume, no gravity, gamma = 0.073
     fig, ax = plt.subplots(figsize=(7, 5))
@@ -848,18 +888,11 @@ def make_figures(out, plan, R, ft, jumps, en):
               & g["method"].str.startswith("exact")]
         c = g[(g["theta_deg"] == t) & (g["regime"] == "coalesced") & (g["status"] == "converged")
               & (g["V_ul"] >= ul(R["vc"][t]) - 1e-9)].sort_values("V_ul")
-        ax.plot(u["V_ul"], u["F_top_mN"], "-", color=col(t), label=f"theta = {t:g}")
-        ax.plot(c["V_ul"], c["F_top_mN"], "o--", mfc="none", color=col(t))
-        ax.axvline(ul(R["vc"][t]), color=col(t), lw=0.5, ls=":")
-    ax.set_xlabel("total volume V [ul]")
-    ax.set_ylabel("vertical force on the top grain [mN]")
-    ax.set_title("no gravity, gamma = 0.073 N/m: two bridges (lines, exact), "
-                 "coalesced (circles, Evolver)", fontsize=8)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "fig06_09_force_vs_volume.png", dpi=120)
-    plt.close(fig)
-    figs.append("fig06_09_force_vs_volume.png")
+        by_theta(ax, t, u, "F_top_mN", c, "F_top_mN", f"theta = {t:g}")
+    _volume_axes(ax, "vertical force on the top grain [mN]",
+                 "no gravity, gamma = 0.073 N/m: two bridges (lines, exact), "
+                 "coalesced (circles, Evolver)", title_size=8)
+    figs.append(_save_figure(fig, out, "fig06_09_force_vs_volume.png"))
 
     # Fig. 10: V_coal against theta
     dfv, fit = R["dfv"], R["fit"]
@@ -867,7 +900,7 @@ def make_figures(out, plan, R, ft, jumps, en):
     ax.plot(dfv["theta_deg"], dfv["V_coal_ul"], "bo", label="exact, caps criterion")
     tt = np.linspace(0, 90, 50)
     ax.plot(tt, fit.predict(tt), "b-", label=f"fit: {fit.V0:.2f} + theta/90 x {fit.dV:.2f} ul")
-    ax.plot(tt, 14.5 + tt / 90 * 18, "r--", label="paper: 14.5 + theta/90 x 18 ul")
+    ax.plot(tt, paper_line(tt), "r--", label=f"paper: {PAPER_LINE_TEXT} ul")
     if R["fit_low"] is not None:
         fl = R["fit_low"]
         ax.plot(tt, fl.predict(tt), "b:", lw=1,
@@ -885,10 +918,7 @@ def make_figures(out, plan, R, ft, jumps, en):
     ax.set_xlabel("contact angle theta [deg]")
     ax.set_ylabel("V_coal [ul]")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "fig10_vcoal_theta.png", dpi=120)
-    plt.close(fig)
-    figs.append("fig10_vcoal_theta.png")
+    figs.append(_save_figure(fig, out, "fig10_vcoal_theta.png"))
 
     # Figs. 11/13: theta = 0, gravity and surface tension
     fig, axs = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
@@ -922,10 +952,7 @@ def make_figures(out, plan, R, ft, jumps, en):
     axs[1].set_xlabel("total volume V [ul]")
     axs[0].set_title("theta = 0: gravity and surface tension (Figs. 11, 13)")
     axs[0].legend(fontsize=6)
-    fig.tight_layout()
-    fig.savefig(out / "fig11_13_gravity_gamma.png", dpi=120)
-    plt.close(fig)
-    figs.append("fig11_13_gravity_gamma.png")
+    figs.append(_save_figure(fig, out, "fig11_13_gravity_gamma.png"))
 
     # Fig. 14: gamma = 0.0693, gravity, theta = 55 and 60
     s14 = ft[(ft["gamma_N_m"] == 0.0693) & ft["gravity"] & ft["theta_deg"].isin([55.0, 60.0])
@@ -938,19 +965,13 @@ def make_figures(out, plan, R, ft, jumps, en):
                 if regime == "uncoalesced":
                     r, past = _split_at_coalescence(r, R["vc_grav"].get((0.0693, t)))
                     ax.plot(past["V_ul"], past["F_top_mN"], mk, color="gray", mfc="none")
-                line, = ax.plot(r["V_ul"], r["F_top_mN"], mk + ls, label=f"theta {t:g}, {regime}")
+                ax.plot(r["V_ul"], r["F_top_mN"], mk + ls, label=f"theta {t:g}, {regime}")
                 rough = r[r["force_err_rel"] > 0.03]
                 ax.plot(rough["V_ul"], rough["F_top_mN"], mk, color="w", ms=4)
         ax.text(0.98, 0.02, "white centre: estimated force error > 3 %; gray: separate "
                 "bridges past V_coal", transform=ax.transAxes, ha="right", fontsize=6)
-        ax.set_xlabel("total volume V [ul]")
-        ax.set_ylabel("F on top grain [mN]")
-        ax.set_title("gamma = 0.0693 N/m, gravity (Fig. 14)")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "fig14_calibration.png", dpi=120)
-        plt.close(fig)
-        figs.append("fig14_calibration.png")
+        _volume_axes(ax, "F on top grain [mN]", "gamma = 0.0693 N/m, gravity (Fig. 14)")
+        figs.append(_save_figure(fig, out, "fig14_calibration.png"))
 
     # Fig. 15: beta against volume, theta = 60, gamma = 0.0693, gravity
     b = R["dfb"]
@@ -962,14 +983,9 @@ def make_figures(out, plan, R, ft, jumps, en):
         cu = R["curves"][R["curves"]["theta_deg"] == 60]
         ax.plot(cu["V_ul"], cu["beta_top_deg"], "b-", label="no gravity (exact)")
         ax.axhline(R["alpha"], color="r", label=f"alpha = {R['alpha']:.2f} deg")
-        ax.set_xlabel("total volume V [ul]")
-        ax.set_ylabel("half filling angle on the top grain [deg]")
-        ax.set_title("theta = 60, gamma = 0.0693 N/m (Fig. 15)")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "fig15_beta.png", dpi=120)
-        plt.close(fig)
-        figs.append("fig15_beta.png")
+        _volume_axes(ax, "half filling angle on the top grain [deg]",
+                     "theta = 60, gamma = 0.0693 N/m (Fig. 15)")
+        figs.append(_save_figure(fig, out, "fig15_beta.png"))
 
     # energies
     if len(en):
@@ -977,18 +993,11 @@ def make_figures(out, plan, R, ft, jumps, en):
         for t in sorted(set(en["theta_deg"])):
             s = en[en["theta_deg"] == t].sort_values("V_ul")
             cu = R["curves"][R["curves"]["theta_deg"] == t]
-            ax.plot(cu["V_ul"], cu["E_star"], "-", color=col(t), label=f"theta {t:g}: two bridges")
-            ax.plot(s["V_ul"], s["E_coalesced_star"], "o--", mfc="none", color=col(t))
-            ax.axvline(ul(R["vc"][t]), color=col(t), lw=0.5, ls=":")
-        ax.set_xlabel("total volume V [ul]")
-        ax.set_ylabel("E* = (A_lg - cos(theta) A_wet) / r^2")
-        ax.set_title("surface energy: two bridges (lines, exact) and coalesced body "
-                     "(circles, Evolver)", fontsize=8)
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(out / "fig_energy.png", dpi=120)
-        plt.close(fig)
-        figs.append("fig_energy.png")
+            by_theta(ax, t, cu, "E_star", s, "E_coalesced_star", f"theta {t:g}: two bridges")
+        _volume_axes(ax, "E* = (A_lg - cos(theta) A_wet) / r^2",
+                     "surface energy: two bridges (lines, exact) and coalesced body "
+                     "(circles, Evolver)", title_size=8)
+        figs.append(_save_figure(fig, out, "fig_energy.png"))
 
     # profiles in the plane of the centres (Figs. 7, 12, 16)
     f = _profiles_figure(out, plan, R)
@@ -1052,13 +1061,10 @@ def _profiles_figure(out, plan, R):
         ax.set_ylim(-1.3, 3.1)
         ax.axhline(0.0, color="0.8", lw=0.5)
         ax.set_title(title, fontsize=7)
-    fig.tight_layout()
     if not any_drawn:
         plt.close(fig)
         return None
-    fig.savefig(out / "fig07_12_16_profiles.png", dpi=120)
-    plt.close(fig)
-    return "fig07_12_16_profiles.png"
+    return _save_figure(fig, out, "fig07_12_16_profiles.png")
 
 
 # --------------------------------------------------------------------------------------
@@ -1104,7 +1110,7 @@ def write_claims(out, s):
     lev = s.get("theta0_cap_gap_at_exact_V_coal_by_level", {})
     levtxt = ", ".join(f"level {k}: {_f(v)} deg" for k, v in sorted(lev.items(), key=lambda kv: int(kv[0])))
     b0 = next((r for r in s["V_coal_gravity"] if r["theta_deg"] == 0 and r["bond"] == 0), None)
-    rows.append(("theta = 0, gamma = 0.073, no gravity: coalescence volume", "14-14.5 ul",
+    rows.append(("theta = 0, gamma = 0.073, no gravity: coalescence volume", f"{lo:g}-{hi:g} ul",
                  f"{_f(v0)} ul (exact shapes, beta = alpha = {_f(alpha)} deg)"
                  + (f"; by our Evolver mesh (level {s['max_refine']}), cap gap extrapolated "
                     f"to 0: {_f(b0['V_coal_mesh_ul'])} ul" if b0 else ""),
@@ -1136,20 +1142,24 @@ def write_claims(out, s):
     # 5 linear fit
     fit = s["V_coal_fit"]
     f15 = s.get("V_coal_fit_theta_ge_15")
+    pf = PAPER["V_coal_fit"]
     rows.append(("V_coal against theta: V_coal = V0 + (theta/90) dV, linear",
-                 "V0 = 14.5 ul, dV = 18 ul",
+                 f"V0 = {pf['V0']:g} ul, dV = {pf['dV']:g} ul",
                  f"all angles 0-89: V0 = {_f(fit['V0'])} ul, dV = {_f(fit['dV'])} ul, "
                  f"rms residual {_f(fit['rms_residual'])} ul, max {_f(fit['max_abs_residual'])} ul"
                  + (f"; theta >= 15: V0 = {_f(f15['V0'])}, dV = {_f(f15['dV'])} ul, max residual "
                     f"{_f(f15['max_abs_residual'])} ul" if f15 else ""),
-                 f"V0 {_f(fit['V0'] - 14.5)} ul, dV {_f(fit['dV'] - 18)} ul",
+                 f"V0 {_f(fit['V0'] - pf['V0'])} ul, dV {_f(fit['dV'] - pf['dV'])} ul",
                  _line_note(s) + " The fit over all angles is pulled by the theta = 0 "
                  "point; from 15 deg on the exact values are a straight line."))
     # 6 Bond
-    bo = s["bond_numbers"]
-    rows.append(("Bond number, r = 4 mm, drho = 997 kg/m^3", "2.14 (gamma 0.073), 2.26 (0.0693)",
-                 f"{_f(bo.get('0.073', bo.get(0.073)), 3)}, {_f(bo.get('0.0693', bo.get(0.0693)), 3)}",
-                 "agrees", ""))
+    bo = {float(g): b for g, b in s["bond_numbers"].items()}
+    pb = PAPER["Bo"]
+    rows.append(("Bond number, r = 4 mm, drho = 997 kg/m^3",
+                 f"{pb[0.073]:g} (gamma 0.073), {pb[0.0693]:g} (0.0693)",
+                 f"{_f(bo.get(0.073), 3)}, {_f(bo.get(0.0693), 3)}",
+                 "agrees" if all(round(bo.get(g, np.nan), 2) == b for g, b in pb.items())
+                 else "differs", ""))
     # 7 gravity theta 0
     g0 = next((r for r in s["V_coal_gravity"] if r["theta_deg"] == 0 and r["bond"] > 0
                and abs(r["gamma"] - 0.073) < 1e-9), None)
@@ -1185,7 +1195,7 @@ def write_claims(out, s):
                  "the top grain are closer with gravity than without (cap gaps against "
                  "volume in evolver_bridges.csv)" if dv0 < 0 else
                  "gravity raises V_coal here")
-    rows.append(("Gravity, theta = 0: V_coal", "still 14-14.5 ul",
+    rows.append(("Gravity, theta = 0: V_coal", f"still {lo:g}-{hi:g} ul",
                  (f"{_f(g0['V_coal_mesh_ul'])} ul from the mesh (level {s['max_refine']}); "
                   f"{_f(g0['V_coal_corrected_ul'])} ul with the mesh bias measured without "
                   f"gravity removed (exact no-gravity: {_f(v0)} ul)") if g0 else "n/a",
@@ -1195,18 +1205,22 @@ def write_claims(out, s):
     gg = [r for r in s["V_coal_gravity"] if r["bond"] > 0 and abs(r["gamma"] - 0.0693) < 1e-9
           and r["theta_deg"] in (55.0, 60.0)]
     ab = s.get("alpha_minus_beta_at_20ul_theta60_0693_gravity")
-    rows.append(("gamma = 0.0693, gravity, theta = 55-60 deg: coalescence volume", "24-26 ul",
+    glo, ghi = PAPER["V_coal_gravity_0693_theta55_60_ul"]
+    gmid = (glo + ghi) / 2
+    rows.append(("gamma = 0.0693, gravity, theta = 55-60 deg: coalescence volume",
+                 f"{glo:g}-{ghi:g} ul",
                  "; ".join(f"theta {r['theta_deg']:g}: {_f(r['V_coal_corrected_ul'])} ul "
                            f"(mesh {_f(r['V_coal_mesh_ul'])})" for r in gg) or "n/a",
-                 "; ".join(f"{_f(r['V_coal_corrected_ul'] - 25.0)} ul from the middle (25)"
+                 "; ".join(f"{_f(r['V_coal_corrected_ul'] - gmid)} ul from the middle ({gmid:g})"
                            for r in gg),
-                 "" if all(24 <= r["V_coal_corrected_ul"] <= 26 for r in gg) else
+                 "" if all(glo <= r["V_coal_corrected_ul"] <= ghi for r in gg) else
                  "Ours is lower: with gravity the caps on the top grain meet at smaller "
                  "volumes at every angle computed (see the theta = 0 rows). The experiment "
                  "coalesced between 16 and 20 ul (paper, section 3.6)."))
-    rows.append(("... theta = 60 deg, 20 ul: beta below alpha by", "< 3 deg",
+    ab_max = PAPER["beta_alpha_gap_at_20ul_theta60_deg"]
+    rows.append(("... theta = 60 deg, 20 ul: beta below alpha by", f"< {ab_max:g} deg",
                  f"{_f(ab)} deg (alpha - beta, beta = alpha - cap gap / 2 from the mesh)",
-                 "agrees" if ab is not None and 0 <= ab < 3 else
+                 "agrees" if ab is not None and 0 <= ab < ab_max else
                  "differs: beta already above alpha (caps met below 20 ul)"
                  if ab is not None and ab < 0 else "see text", ""))
     # 9 trimer
@@ -1224,7 +1238,9 @@ def write_claims(out, s):
     ftxt = "; ".join(f"max level {k}: {_f(v['err_vs_exact_pct'], 2)} % (estimated "
                      f"{_f(v['est_err_pct'], 2)} %)" for k, v in sorted(
                          ((k, v) for k, v in fl.items() if k != "exact"), key=lambda kv: int(kv[0])))
-    rows.append(("Force convergence with remeshing", "5->7: max 0.35 %; 6->7: 0.07 %",
+    rows.append(("Force convergence with remeshing",
+                 f"5->7: max {PAPER['convergence_5_7_max_pct']:g} %; "
+                 f"6->7: {PAPER['convergence_6_7_max_pct']:g} %",
                  ("two bridges, theta = 0, at V_coal, vertical force against the exact value: "
                   + ftxt) if ftxt else "n/a",
                  "different protocol",
@@ -1268,10 +1284,10 @@ def write_claims(out, s):
     for r in rows:
         lines.append("| " + " | ".join(str(c).replace("|", "/") for c in r) + " |")
     lines += ["", "## Coalescence volumes (exact shapes, no gravity)", "",
-              "| theta [deg] | V_coal [ul] | paper line 14.5 + theta/90 x 18 [ul] | difference [ul] |",
+              f"| theta [deg] | V_coal [ul] | paper line {PAPER_LINE_TEXT} [ul] | difference [ul] |",
               "|---|---|---|---|"]
     for t, v in sorted(vc.items()):
-        p = 14.5 + t / 90 * 18
+        p = paper_line(t)
         lines.append(f"| {t:g} | {_f(v)} | {_f(p)} | {_f(v - p)} |")
     lines += ["", "## Force on the top grain at coalescence", "",
               "Before: separate bridges at V_coal (exact; with gravity, Evolver interpolated "

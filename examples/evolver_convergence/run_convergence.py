@@ -87,15 +87,6 @@ def problem(case):
                         pairs=[(0, 1), (0, 2)])
 
 
-def component(case):
-    """(grain, unit vector u): the reported force is F[grain] . u (attraction > 0)."""
-    return reported_component(problem(case))
-
-
-def paper_move(case):
-    return paper_stretch(problem(case))
-
-
 def exact(case):
     """Reference force (and the exact forward-difference secant where available)."""
     c = CASES[case]
@@ -106,12 +97,13 @@ def exact(case):
         return dict(force=float(r0["force"]), secant=secant, kind="exact Young-Laplace")
     if c["topology"] == "bridges":
         C = triplet_centres(*TRIPLET_GAPS)
-        _, m = component(case)
+        pb = problem(case)
+        _, m = reported_component(pb)
         u1 = (C[1] - C[0]) / np.linalg.norm(C[1] - C[0])
         u2 = (C[2] - C[0]) / np.linalg.norm(C[2] - C[0])
         r0 = solve_doublet(TRIPLET_GAPS[0], c["volume"] / 2, c["theta"])
         # the paper's displacement moves the top grain up: both gaps grow
-        pb1 = problem(case).moved(0, -PAPER_DELTA * m)
+        pb1 = pb.moved(0, -PAPER_DELTA * m)
         gap1 = np.linalg.norm(pb1.centres[1] - pb1.centres[0]) - 2.0
         r1 = solve_doublet(gap1, c["volume"] / 2, c["theta"])
         secant = 2 * (float(r1["energy"]) - float(r0["energy"])) / PAPER_DELTA / (2 * np.pi)
@@ -146,7 +138,7 @@ def study_settings(**kw):
 
 def task_ours_levels(case, lmax):
     pb = problem(case)
-    g, u = component(case)
+    g, u = reported_component(pb)      # the reported force is F[g] . u (attraction > 0)
     t0 = time.monotonic()
     r = minimise(pb, study_settings(max_refine=lmax, etol=0.0, ftol=0.0,
                                     vw_components=[(g, u)]))
@@ -166,7 +158,7 @@ def task_ours_levels(case, lmax):
 
 def task_ours_default(case, all_forces=False, **kw):
     pb = problem(case)
-    g, u = component(case)
+    g, u = reported_component(pb)      # the reported force is F[g] . u (attraction > 0)
     t0 = time.monotonic()
     if not all_forces:
         kw["vw_components"] = [(g, u)]
@@ -181,7 +173,8 @@ def task_ours_default(case, all_forces=False, **kw):
 
 
 def task_paper(case, n_refine, final="gradient", n_after=1400, checkpoints=None):
-    grain, d, sign = paper_move(case)
+    pb = problem(case)
+    grain, d, sign = paper_stretch(pb)
     kw = dict(n_refine=n_refine, ngrad_between=36, final=final)
     if final == "gradient":
         kw["ngrad_after"] = n_after
@@ -189,7 +182,7 @@ def task_paper(case, n_refine, final="gradient", n_after=1400, checkpoints=None)
         kw["n_newton"] = n_after
     if checkpoints is not None:
         kw["checkpoints"] = checkpoints
-    r = forward_difference_force(problem(case), grain, d, delta=PAPER_DELTA, **kw)
+    r = forward_difference_force(pb, grain, d, delta=PAPER_DELTA, **kw)
     k, Fk = r.force_at()
     cpu_k = (r.base.checkpoints[:len(k), 2] + r.moved.checkpoints[:len(k), 2]
              if len(k) else np.zeros(0))
@@ -200,7 +193,7 @@ def task_paper(case, n_refine, final="gradient", n_after=1400, checkpoints=None)
                 energy_base=r.base.energy, energy_moved=r.moved.energy)
 
 
-def run_tasks(cases, a):
+def run_tasks(cases):
     cache = load_cache()
     cache.setdefault("_meta", {})
     cache["_meta"].update(machine=f"{platform.processor() or platform.machine()}, "
@@ -282,12 +275,11 @@ def tables(cache, cases):
                                     setting=f"L{r['level']}",
                                     cpu_per_force=r["cpu_cumulative"],
                                     rel_error=abs(rel(float(Fx[0])))))
-        for key, label in (("ours-default", "ours, default settings"),
-                           ("ours-tol1e-3", "ours, ftol 1e-3")):
-            d = cache.get(f"{case}/{key}")
-            if d and "force" in d:
-                te_rows.append(dict(case=case, method=label, setting=f"L{d['level']}",
-                                    cpu_per_force=d["cpu"], rel_error=abs(rel(d["force"]))))
+        d = cache.get(f"{case}/ours-default")
+        if d and "force" in d:
+            te_rows.append(dict(case=case, method="ours, default settings",
+                                setting=f"L{d['level']}", cpu_per_force=d["cpu"],
+                                rel_error=abs(rel(d["force"]))))
         # paper protocol per number of refinements
         for L in range(1, 8):
             d = cache.get(f"{case}/paper-{L}")
@@ -416,7 +408,7 @@ def plots(ref_rows, lev_rows, it_rows, te_rows, cases):
     # 3. CPU time against error
     fig, axes = plt.subplots(1, len(cases), figsize=(4.2 * len(cases), 3.8), squeeze=False)
     marks = {"ours, finest level": "o-", "ours, Richardson": "^-", "paper protocol": "s--",
-             "ours, default settings": "*", "ours, ftol 1e-3": "P"}
+             "ours, default settings": "*"}
     for ax, case in zip(axes[0], cases):
         rr = [r for r in te_rows if r["case"] == case]
         ref = refs[case]
@@ -472,7 +464,7 @@ def main(argv=None):
         LEVELS[list(CASES)[i]] = (lo, lp, li)
     os.environ["CAPBRIDGE_EVOLVER_WORKERS"] = "1"        # one Evolver process at a time
     cases = [c for c in CASES if c in a.only]
-    cache = load_cache() if a.plot_only else run_tasks(cases, a)
+    cache = load_cache() if a.plot_only else run_tasks(cases)
     done = [c for c in cases if f"{c}/ours-levels" in cache]
     rows = tables(cache, done)
     for name, r in zip(("reference.csv", "refinement.csv", "iterations.csv",
