@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from capbridge.reproduce import STUDIES
 from capbridge.status import status_name
 from capbridge.validation import CapbridgeInputError
 
@@ -212,14 +213,13 @@ def _json_tree(x):
 
 
 def cmd_reproduce(args):
-    from capbridge.reproduce import miot2021
+    import importlib
 
-    if args.study != "miot2021":   # argparse choices already refuse others
-        raise CapbridgeInputError(f"unknown study {args.study!r}")
+    study = importlib.import_module(f"capbridge.reproduce.{args.study}")
     ck = args.checkpoint_dir
     if ck is None and not args.quick:
-        ck = ".sweep-checkpoints/miot2021"
-    s = miot2021.run(args.output_dir, quick=args.quick, checkpoint_dir=ck,
+        ck = f".sweep-checkpoints/{args.study}"
+    s = study.run(args.output_dir, quick=args.quick, checkpoint_dir=ck,
                      progress=not args.no_progress, max_refine=args.max_refine)
     print(json.dumps({"output_dir": args.output_dir, "files": s.get("files", []),
                       "claims": str(Path(args.output_dir) / "CLAIMS.md"),
@@ -304,7 +304,7 @@ def build_parser():
     co.set_defaults(func=cmd_coalescence)
 
     rep = sub.add_parser("reproduce", help="reproduce a published study (figures, CSV, claims table)")
-    rep.add_argument("study", choices=["miot2021"])
+    rep.add_argument("study", choices=STUDIES)
     rep.add_argument("--quick", action="store_true", help="a handful of points, coarse meshes")
     rep.add_argument("--output-dir", default="examples/miot2021")
     rep.add_argument("--checkpoint-dir", default=None,
