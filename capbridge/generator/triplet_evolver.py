@@ -196,11 +196,11 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
     free surface in the plane of the centres, (m, 2, 3)), warnings.  The last three
     need ``inspect_mesh`` (default: on), which reloads the final mesh once.
 
-    A run that fails on the mesh (degenerate or folded facets, or the driver error
-    worked around below) is retried from a finer starting ring (``retry_rings``: the
-    number of vertices per starting contact ring); ``attempts`` lists them.  A shape
-    that fails with every ring is most likely not an equilibrium (e.g. a coalesced body
-    well below its coalescence volume).
+    A run that fails on the mesh (degenerate or folded facets, or a driver error flagged
+    by :func:`~capbridge.generator.evolver.minimise`) is retried from a finer starting
+    ring (``retry_rings``: the number of vertices per starting contact ring);
+    ``attempts`` lists them.  A shape that fails with every ring is most likely not an
+    equilibrium (e.g. a coalesced body well below its coalescence volume).
     """
     from capbridge.generator.evolver import minimise_bridge
 
@@ -222,17 +222,8 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
     for n_ring in rings:
         kw = dict(settings, n_ring=n_ring)
         s = _settings(max_refine, tol, measure, **kw)
-        try:
-            res = minimise_bridge(geom.centres, 1.0, t, vol, topology=topology, pairs=pairs,
-                                  bond=float(bond), gravity_dir=(0.0, 0.0, -1.0), settings=s)
-        except (IndexError, ValueError, RuntimeError) as exc:
-            # Workaround: the driver's result assembly raises (IndexError in
-            # minimise._fill) when only the gravity-free level 0 passed; not a result.
-            from capbridge.generator.evolver import BridgeResult
-
-            res = BridgeResult(status=Status.NOT_CONVERGED,
-                               reason=f"evolver driver error: {type(exc).__name__}: {exc} "
-                                      "(level 1 failed after a gravity-free level 0)")
+        res = minimise_bridge(geom.centres, 1.0, t, vol, topology=topology, pairs=pairs,
+                              bond=float(bond), gravity_dir=(0.0, 0.0, -1.0), settings=s)
         wall += res.wall_time
         cpu += res.cpu_time
         attempts.append({"n_ring": n_ring, "status": res.status.name.lower(),

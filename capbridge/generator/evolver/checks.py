@@ -34,9 +34,28 @@ class Tolerances:
     cap_gap_edges: float = 0.5    # contact lines of two bodies closer than this: merged
 
 
-def _edge_lengths(X, tri):
-    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    return np.linalg.norm(X[e[:, 0]] - X[e[:, 1]], axis=1)
+def _edges(tri):
+    """Directed edges (a, b), (b, c), (c, a) of all facets, in that block order (3 nf, 2)."""
+    return np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+
+
+def _min_adjacent_cos(tri, unit, n_vertices):
+    """Smallest cosine between the unit normals of two facets sharing an edge (1 if none).
+
+    Facets are neighbours when one has the edge (a, b) and the other (b, a) (consistent
+    orientation; boundary edges have no partner)."""
+    e = _edges(tri)
+    f = np.tile(np.arange(len(tri)), 3)
+    key = e[:, 0] * n_vertices + e[:, 1]
+    order = np.argsort(key)
+    ks = key[order]
+    rev = e[:, 1] * n_vertices + e[:, 0]
+    pos = np.minimum(np.searchsorted(ks, rev), len(ks) - 1)
+    hit = ks[pos] == rev
+    if not np.any(hit):
+        return 1.0
+    cos = np.einsum("ij,ij->i", unit[f[hit]], unit[f[order[pos[hit]]]])
+    return min(1.0, float(cos.min()))
 
 
 def analyse(snap, mp, tol=None, direct=None):
@@ -73,7 +92,8 @@ def analyse(snap, mp, tol=None, direct=None):
     if len(tri) == 0:
         fails.append(Failure("mesh", "no facets left"))
         return fails, diag
-    el = _edge_lengths(X, tri)
+    e = _edges(tri)
+    el = np.linalg.norm(X[e[:, 0]] - X[e[:, 1]], axis=1)
     hmean = float(el.mean())
     diag["mean_edge"] = hmean
     # contact lines present
@@ -89,6 +109,8 @@ def analyse(snap, mp, tol=None, direct=None):
     # penetration of vertices into grains
     worst = 0.0
     own_grain = np.full(len(X), -1)
+    cen = X[tri].mean(axis=1)
+    emax = el.reshape(3, -1).max(axis=0)      # longest edge of each facet
     for i, g in contact_vertex_grain.items():
         own_grain[i] = g
     for g in range(pb.n_grains):
@@ -101,9 +123,6 @@ def analyse(snap, mp, tol=None, direct=None):
             fails.append(Failure("penetration", f"{n_in} vertices of the free surface inside "
                                                 f"grain {g + 1} (depth {-d.min():.2e} r)"))
         # facet centroids deep inside (surface passing through a grain between vertices)
-        cen = X[tri].mean(axis=1)
-        emax = np.max(np.stack([np.linalg.norm(X[tri[:, m]] - X[tri[:, (m + 1) % 3]], axis=1)
-                                for m in range(3)]), axis=0)
         depth = pb.radii[g] - np.linalg.norm(cen - pb.centres[g], axis=1)
         allowed = tol.facet_depth * emax ** 2 / pb.radii[g] + tol.penetration * pb.radii[g]
         if np.any(depth > allowed):
@@ -118,16 +137,7 @@ def analyse(snap, mp, tol=None, direct=None):
         fails.append(Failure("degenerate", f"{int(np.sum(area < tol.min_area_ratio * area.mean()))}"
                                            " degenerate facets"))
     unit = nrm / np.maximum(2 * area, 1e-300)[:, None]
-    emap = {}
-    worst_cos = 1.0
-    for f, t in enumerate(tri):
-        for m in range(3):
-            a, b = int(t[m]), int(t[(m + 1) % 3])
-            if (b, a) in emap:
-                c = float(unit[f] @ unit[emap[(b, a)]])
-                worst_cos = min(worst_cos, c)
-            else:
-                emap[(a, b)] = f
+    worst_cos = _min_adjacent_cos(tri, unit, len(X))
     diag["min_normal_cos"] = worst_cos
     if worst_cos < tol.fold_cos:
         fails.append(Failure("fold", f"inverted/folded facets (adjacent normals at "

@@ -41,13 +41,26 @@ class DirectForces:
 
 
 def _directed_facets(snap):
+    """(vertex id -> row, lookup of directed edges).
+
+    The lookup maps the rows (a, b) of a directed edge to the third corner of the facet
+    that has it (the last such facet when several do), or -1 when no facet has it.
+    """
     idx = snap.index_of()
-    third = {}
-    for f in snap.facets:
-        a, b, c = (idx[int(v)] for v in f)
-        third[(a, b)] = c
-        third[(b, c)] = a
-        third[(c, a)] = b
+    tri = np.vectorize(idx.get, otypes=[int])(snap.facets)
+    nv = len(snap.vertices)
+    keys = (tri * nv + np.roll(tri, -1, axis=1)).ravel()        # (a,b), (b,c), (c,a)
+    thirds = np.roll(tri, 1, axis=1).ravel()                    #   c,     a,     b
+    order = np.argsort(keys, kind="stable")
+    keys = keys[order]
+
+    def third(a, b):
+        k = np.asarray(a) * nv + np.asarray(b)
+        if not len(keys):
+            return np.full(k.shape, -1)
+        pos = np.maximum(np.searchsorted(keys, k, side="right") - 1, 0)   # last with (a, b)
+        return np.where(keys[pos] == k, thirds[order[pos]], -1)
+
     return idx, third
 
 
@@ -70,14 +83,12 @@ def direct_forces(snap, mp):
             continue
         ia = np.array([idx[int(v)] for v in e[:, 0]])
         ib = np.array([idx[int(v)] for v in e[:, 1]])
-        thirds = []
-        for a, b in zip(ia, ib):
-            if (a, b) in third:
-                thirds.append(third[(a, b)])
-            else:
-                reversed_edges += 1
-                thirds.append(third.get((b, a), a))
-        thirds = np.array(thirds)
+        thirds = third(ia, ib)
+        rev = thirds < 0                          # edge oriented against its facet
+        reversed_edges += int(rev.sum())
+        if rev.any():
+            back = third(ib[rev], ia[rev])
+            thirds[rev] = np.where(back < 0, ia[rev], back)
         c = pb.centres[g]
         R = pb.radii[g]
         th = np.radians(pb.contact_angles_deg[g])
@@ -171,25 +182,20 @@ def neck_force(neck_radius, pressure):
 # --------------------------------------------------------------------------------------
 
 
-def _cut(snap_X, tri, nrm, c, rho):
-    """Cut of a triangulated free surface by the sphere |x - c| = rho.
+def _crossed(X, tri, phi):
+    """Facets crossed by the level set phi = 0 (phi per vertex), split at their lone corner.
 
-    Returns (S_D, T, segments): S_D = \\int_D n dA of D, the part of the sphere inside the
-    liquid (n outward), from the cut polygon; T = sum of L nu_out (facet conormals
-    pointing out of the sphere); segments (m, 2, 3) oriented as the boundary of D.
+    Returns (nin, cross, lone_in, a, b, d, p, q): ``nin`` the number of corners with
+    phi < 0 of every facet, ``cross`` the facets with one or two; for those, ``a`` the
+    lone corner (inside when ``lone_in``, else outside), ``b``, ``d`` the next corners in
+    the facet's order and ``p``, ``q`` the zero crossings on the edges a-b and a-d
+    (linear in phi).
     """
-    X = snap_X
-    phi = np.linalg.norm(X - c, axis=1) - rho
-    phi = np.where(phi == 0.0, 1e-15, phi)
     ins = phi[tri] < 0                                     # (nf, 3)
     nin = ins.sum(axis=1)
     cross = (nin == 1) | (nin == 2)
-    if not np.any(cross):
-        return np.zeros(3), np.zeros(3), np.zeros((0, 2, 3))
     t = tri[cross]
     s = ins[cross]
-    n = nrm[cross]
-    # the lone vertex: inside when nin == 1, outside when nin == 2
     lone_in = s.sum(axis=1) == 1
     lone = np.where(lone_in, np.argmax(s, axis=1), np.argmin(s, axis=1))
     rows = np.arange(len(t))
@@ -198,12 +204,25 @@ def _cut(snap_X, tri, nrm, c, rho):
     d = t[rows, (lone + 2) % 3]
 
     def interp(i, j):
-        fi, fj = phi[i], phi[j]
-        w = fi / (fi - fj)
+        w = phi[i] / (phi[i] - phi[j])
         return X[i] + w[:, None] * (X[j] - X[i])
 
-    p = interp(a, b)
-    q = interp(a, d)
+    return nin, cross, lone_in, a, b, d, interp(a, b), interp(a, d)
+
+
+def _cut(X, tri, nrm, c, phi):
+    """Cut of a triangulated free surface by the sphere |x - c| = rho (phi = |x - c| - rho
+    per vertex).
+
+    Returns (S_D, T, segments): S_D = \\int_D n dA of D, the part of the sphere inside the
+    liquid (n outward), from the cut polygon; T = sum of L nu_out (facet conormals
+    pointing out of the sphere); segments (m, 2, 3) oriented as the boundary of D.
+    """
+    phi = np.where(phi == 0.0, 1e-15, phi)
+    _, cross, lone_in, _, _, _, p, q = _crossed(X, tri, phi)
+    if not np.any(cross):
+        return np.zeros(3), np.zeros(3), np.zeros((0, 2, 3))
+    n = nrm[cross]
     # facet boundary runs a -> b -> d (counter-clockwise about n); the lone corner a lies
     # to the left of p -> q.  Inside part on the left: p -> q if the lone vertex is
     # inside, else q -> p.
@@ -225,30 +244,13 @@ def _cut(snap_X, tri, nrm, c, rho):
 
 def _inside_volume(X, tri, phi):
     """\\int (x/3).n dA over the parts of the facets with phi < 0 (facets cut straight)."""
-    ins = phi[tri] < 0
-    nin = ins.sum(axis=1)
+    nin, _, lone_in, a, b, d, p, q = _crossed(X, tri, phi)
 
     def det(a, b, c):
         return np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0
 
     full = tri[nin == 3]
     vol = det(X[full[:, 0]], X[full[:, 1]], X[full[:, 2]]).sum()
-    cross = (nin == 1) | (nin == 2)
-    t = tri[cross]
-    s = ins[cross]
-    lone_in = s.sum(axis=1) == 1
-    lone = np.where(lone_in, np.argmax(s, axis=1), np.argmin(s, axis=1))
-    rows = np.arange(len(t))
-    a = t[rows, lone]
-    b = t[rows, (lone + 1) % 3]
-    d = t[rows, (lone + 2) % 3]
-
-    def interp(i, j):
-        w = phi[i] / (phi[i] - phi[j])
-        return X[i] + w[:, None] * (X[j] - X[i])
-
-    p = interp(a, b)
-    q = interp(a, d)
     li = lone_in
     vol += det(X[a[li]], p[li], q[li]).sum()
     lo = ~lone_in
@@ -296,6 +298,7 @@ def cut_forces(snap, mp, n_eta=16, band=(0.25, 0.75)):
             if half <= 0:
                 return None
             etas = half * np.linspace(band[0], band[1], n_eta)
+            dist = np.linalg.norm(X - c, axis=1)
             acc = np.zeros(3)
             cap_content = 0.0
             if pb.bond > 0:
@@ -309,7 +312,8 @@ def cut_forces(snap, mp, n_eta=16, band=(0.25, 0.75)):
                 cap_content = line_integral(content_field(c, R, ring.axis), X[ia], X[ib])
             for eta in etas:
                 rho = R + eta
-                S_D, T, segs = _cut(X, tri, nrm, c, rho)
+                phi = dist - rho
+                S_D, T, segs = _cut(X, tri, nrm, c, phi)
                 if len(segs) == 0:
                     return None
                 f = -P * S_D + T
@@ -317,7 +321,6 @@ def cut_forces(snap, mp, n_eta=16, band=(0.25, 0.75)):
                     p0, p1 = segs[:, 0], segs[:, 1]
                     A_D = line_integral(area_field(c, rho, ring.axis), p0, p1)
                     M_D = cap_second_moment(c, rho, ring.axis, p0, p1)
-                    phi = np.linalg.norm(X - c, axis=1) - rho
                     V_in = (_inside_volume(X, tri, phi) + (c @ S_D + rho * A_D) / 3.0
                             + cap_content)
                     f = f + pb.bond * ((up @ c) * S_D + M_D @ up / rho) - pb.bond * V_in * up
