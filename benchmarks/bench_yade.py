@@ -314,27 +314,46 @@ def main(argv=None):
     return 0
 
 
-NOTES = """Notes on this run:
+def notes(results, sizes):
+    """The notes under the table, every figure taken from this run's ``results``."""
+    med = {k: statistics.median(r["ms_per_step"] for r in rs) for k, rs in results.items()}
+
+    def last(n, v, key):
+        return results[(n, v)][-1].get(key, 0) or 0
+
+    def both(fmt, f):
+        return " / ".join(fmt.format(f(n)) for n in sizes)
+
+    vs_law = lambda v: (lambda n: med[(n, v)] / med[(n, "law2")])      # noqa: E731
+    ms = {n: statistics.median(r["engine_cpu_ms_per_call"] for r in results[(n, "capbridge")])
+          for n in sizes}
+    wall = [r["wall_ms_per_step"] / r["ms_per_step"] for rs in results.values() for r in rs]
+    return f"""Notes on this run:
 - Target, capbridge's path for doublets <= 1.5x YADE's native capillary law on the same
-  scene: met by the native fixed-volume path (capbridge's volume-controlled bridges in
-  YADE's compiled Law2, 1.26x / 1.30x: it needs the detection range to cover the
-  rupture distance of volume-controlled bridges, ~1.6x the interactions of the suction
-  run), by CapbridgeEngine at 10,000 grains (0.91x) and by CapbridgeEngine refreshing
-  every 10 steps at both sizes (0.82x / 0.58x); not by CapbridgeEngine refreshing every
-  step at 1,000 grains (1.74x): its fixed cost per call (PyRunner, ~40 numpy calls,
-  one bulk position read; ~0.3 ms) weighs on small scenes, its cost per bridge
-  (~0.3 us CPU) is below Law2's on large ones.
+  scene ({both("{:,}", lambda n: n)} grains): native fixed-volume path (capbridge's
+  volume-controlled bridges in YADE's compiled Law2) {both("{:.2f}x", vs_law("native"))}; it
+  needs the detection range to cover the rupture distance of volume-controlled bridges,
+  {both("{:.2f}x", lambda n: last(n, "native", "real_interactions")
+        / last(n, "law2", "real_interactions"))} the interactions of the suction run.
+  CapbridgeEngine refreshing every step {both("{:.2f}x", vs_law("capbridge"))}, every 10 steps
+  {both("{:.2f}x", vs_law("capbridge10"))}. The engine's CPU per call is
+  {both("{:.2f} ms", lambda n: ms[n])}, i.e. {both("{:.2f} us",
+  lambda n: 1e3 * ms[n] / last(n, "capbridge", "bridges"))} per bridge.
 - CapbridgeEngine's defaults (refresh every step, force_tolerance 1e-3: a grain's force
-  is handed to YADE only when a bridge force on it moved by > 0.1 %) hand ~30-50 grain
-  forces per step to YADE here instead of every wet grain's.
+  is handed to YADE only when a bridge force on it moved by > 0.1 %) hand
+  {both("{:.0f}", lambda n: last(n, "capbridge", "perm_updates_per_call"))} grain forces per
+  step to YADE here instead of every wet grain's.
 - YADE's CapillarityEngine in volume mode (the compiled alternative for volume control)
-  costs 1.5x Law2 and holds about half the bridges: in volume mode it gives no volume
-  to bridges formed after its first step (Python would have to), and its stale
-  tetrahedron cache made a two-sphere lookup hang (> 400 s, killed) where the
-  colleague's workaround (re-created interaction) took 13 s; not used.
-- Accuracy of the same paths (tests/test_yade_engine.py): CapbridgeEngine = capbridge's
-  lookup to 1e-9 (forces not held) or 0.1 % (held) along a pull-apart to rupture; the
-  native fixed-volume files within 0.05 %; zero past rupture for both."""
+  costs {both("{:.2f}x", vs_law("capeng"))} Law2 and holds
+  {both("{:.0%}", lambda n: last(n, "capeng", "bridges") / last(n, "law2", "bridges"))} of
+  its bridges: in volume mode it gives no volume to bridges formed after its first step
+  (Python would have to), and its stale tetrahedron cache made a two-sphere lookup hang
+  where re-creating the interaction avoided it; not used.
+- Wall clock / CPU per step over all runs: {min(wall):.2f}-{max(wall):.2f}.
+- Accuracy of the same paths (tests/test_yade_engine.py, their tolerances):
+  CapbridgeEngine = capbridge's lookup to 1e-9 (forces not held) or 0.5 % (held) along a
+  pull-apart to rupture; the native fixed-volume files within 0.5 %; zero past rupture
+  for both."""
 
 
 def report(a, mach, results, suction, factor, s_star, seconds, command):
@@ -344,17 +363,15 @@ def report(a, mach, results, suction, factor, s_star, seconds, command):
              f"{mach['cpu']}, {mach['cores']} cores, one YADE thread per process "
              f"(OMP_NUM_THREADS=1), YADE {mach['yade']}, Python {mach['python']}, numpy "
              f"{mach['numpy']}; load average {mach['load_before'][0]} before, "
-             f"{mach['load_after'][0]} after (other jobs shared the machine); "
+             f"{mach['load_after'][0]} after; "
              f"{a.rounds} rounds, every variant once per round, median shown; whole run "
              f"{seconds / 60:.1f} min.", "",
              f"Packings: bidisperse spheres, half R = {R_SMALL * 1e3:g} mm, half "
              f"{R_LARGE * 1e3:g} mm (ratio {R_LARGE / R_SMALL:g}, one of YADE's file ratios), "
-             "dropped in a box and deposited dry under gravity for 25,000 steps (still "
-             "moving: unbalanced force ~0.46, the top grains falling; bridges form all "
-             "along the timed steps), then every variant starts from the same positions "
-             "(gravity on, damping 0.4, dt = 0.5 x P-wave step). ms/step is the CPU time "
-             "of the YADE process per step (the machine was shared: wall-clock times, "
-             "listed below, were 4-8x longer and noisier). Liquid: theta = "
+             "dropped in a box and deposited dry under gravity for 25,000 steps, then "
+             "every variant starts from the same positions (gravity on, damping 0.4, "
+             "dt = 0.5 x P-wave step). ms/step is the CPU time of the YADE process per "
+             "step (wall-clock times are listed below). Liquid: theta = "
              f"{THETA:g} deg; capbridge bridges V* = {VSTAR:g} (fixed volume per bridge, "
              f"by the smaller radius); YADE's Law2 at suction {suction:.1f} Pa (s* = "
              f"{s_star:.3f}: V* = {VSTAR:g} at contact for two mean grains), detection "
@@ -377,7 +394,7 @@ def report(a, mach, results, suction, factor, s_star, seconds, command):
             vs_law = med[v] / med["law2"] if "law2" in med else float("nan")
             lines.append(f"| {n:,} | {names[v]} | {med[v]:.2f} | {vs_dry:.2f} | {vs_law:.2f} | "
                          f"{last.get('bridges', 0):,} | {last['real_interactions']:,} |")
-    lines += ["", NOTES, "", "All rounds (ms per step, CPU time of the YADE process, then wall clock):", ""]
+    lines += ["", notes(results, a.sizes), "", "All rounds (ms per step, CPU time of the YADE process, then wall clock):", ""]
     for (n, v), rs in sorted(results.items()):
         extra = ""
         if v.startswith("capbridge"):

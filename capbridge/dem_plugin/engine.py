@@ -29,7 +29,7 @@ not YADE interactions, so no enlarged detection range is needed.  With
 permanent forces in between.
 
 YADE's compiled engines where they can do the work (measured, see
-``benchmarks/RESULTS_yade.md``): a fixed volume per bridge on YADE's file radius
+``benchmarks/RESULTS.md``): a fixed volume per bridge on YADE's file radius
 ratios runs natively in ``Law2_ScGeom_CapillaryPhys_Capillarity`` on capbridge's
 volume-controlled files (:mod:`capbridge.dem_plugin.native_volume`); suction-controlled
 scenes run in the same law on capbridge's suction export (:func:`suction_law2`).
