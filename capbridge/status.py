@@ -14,6 +14,14 @@ class Status(enum.IntEnum):
     COALESCED = 4        #: bridges have merged; the doublet answer does not apply
     OUT_OF_RANGE = 5     #: outside the table; no extrapolation unless asked
     EXTRAPOLATED = 6     #: outside the table, answered by an explicit fallback
+    #: finished at the finest level allowed (``max_refine``) with its own estimated
+    #: error above the tolerance (``ftol``/``etol``): numbers are there, the stated
+    #: precision is not reached (the estimate is in the result)
+    ABOVE_TOLERANCE = 7
+
+
+#: statuses whose numbers are a result (the others carry none, or a force of 0)
+HAS_RESULT = (Status.CONVERGED, Status.ABOVE_TOLERANCE)
 
 
 def cf_flag_attributes():

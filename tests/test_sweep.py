@@ -244,18 +244,11 @@ def test_corrupt_chunk_is_recomputed(tmp_path, calllog, damage):
         np.testing.assert_array_equal(z["in__x"], inp["x"][200:300])
 
 
-def test_mismatched_manifest_is_refused(tmp_path, calllog):
+def test_other_solver_or_settings_are_refused(tmp_path, calllog):
     inp = _inputs(200)
     ck = tmp_path / "ck"
     run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
               progress=False)
-    other = dict(inp, y=inp["y"] + 1.0)
-    with pytest.raises(CheckpointMismatchError, match="different sweep.*inputs_hash"):
-        run_sweep(solve_product, other, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
-                  progress=False)
-    with pytest.raises(CheckpointMismatchError, match="chunk_size"):
-        run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=40, n_jobs=1,
-                  progress=False)
     with pytest.raises(CheckpointMismatchError, match="solver"):
         run_sweep(solve_fails_on_negative, inp, checkpoint_dir=ck, chunk_size=50,
                   n_jobs=1, progress=False)
@@ -263,10 +256,38 @@ def test_mismatched_manifest_is_refused(tmp_path, calllog):
         run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
                   progress=False, settings={"tol": 1e-9})
     assert isinstance(CheckpointMismatchError("x"), ValueError)
+    before = sorted(p.name for p in ck.iterdir())
     (ck / "manifest.json").write_text("{ broken")
     with pytest.raises(CheckpointMismatchError, match="unreadable"):
         run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
                   progress=False)
+    assert sorted(p.name for p in ck.iterdir()) == before   # nothing deleted
+
+
+def test_other_inputs_reuse_matching_chunks(tmp_path, calllog):
+    """A changed grid or chunk size is no mismatch: chunks whose inputs are unchanged
+    (bitwise) are reused, whatever their index; only the others are computed."""
+    inp = _inputs(200)
+    ck = tmp_path / "ck"
+    run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
+              progress=False)
+    calllog.write_text("")
+    other = {k: v.copy() for k, v in inp.items()}
+    other["y"][120] += 1.0                                   # chunk 2 changes
+    res = run_sweep(solve_product, other, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
+                    progress=False)
+    _check_product(res, other)
+    assert res.computed == [2] and res.reused == [0, 1, 3]
+    calllog.write_text("")
+    shifted = {k: v[50:] for k, v in inp.items()}          # same chunks, new indices
+    res = run_sweep(solve_product, shifted, checkpoint_dir=ck, chunk_size=50, n_jobs=1,
+                    progress=False)
+    _check_product(res, shifted)
+    assert res.computed == [] and _calls(calllog) == []
+    res = run_sweep(solve_product, inp, checkpoint_dir=ck, chunk_size=40, n_jobs=1,
+                    progress=False)                          # other cut: all recomputed
+    _check_product(res, inp)
+    assert len(res.computed) == 5
 
 
 def test_sigkill_keeps_finished_chunks(tmp_path):

@@ -8,20 +8,35 @@ full-length arrays in the original order.
 Checkpoint directory layout
 ---------------------------
 ``manifest.json``
-    ``N``, ``chunk_size``, input names, a SHA-256 of all inputs, the solver's name and
-    optional ``settings``.  A directory made by a different sweep is refused
-    (:class:`CheckpointMismatchError`).
+    The solver's name and optional ``settings`` (what makes a chunk's outputs valid),
+    and, for information, ``N``, ``chunk_size``, input names and a SHA-256 of all
+    inputs of the last sweep.  A directory made by another solver or with other
+    settings is refused (:class:`CheckpointMismatchError`): its chunks would be wrong
+    answers.  Other inputs (a changed grid, chunk size or number of points) are not a
+    mismatch: reuse is decided chunk by chunk.
 ``chunk_<index>_<hash>.npz``
     One finished chunk: its inputs (``in__<name>``), its outputs (``out__<name>``) and
     its position (``meta__index/start/stop``).  ``<hash>`` is a SHA-256 prefix of the
-    chunk's inputs.  Files are written to a temporary name and ``os.replace``-d, so a
-    kill (even SIGKILL) never leaves a half-written chunk under a final name; a file
-    that cannot be read or does not match its inputs is recomputed, never trusted.
+    chunk's inputs.  A chunk of a new sweep whose inputs hash to that of a stored file,
+    and whose stored inputs are bitwise equal to its own, is reused (whatever its
+    index); only the others are computed.  Files are written to a temporary name and
+    ``os.replace``-d, so a kill (even SIGKILL) never leaves a half-written chunk under a
+    final name; a file that cannot be read or does not match its inputs is recomputed,
+    never trusted.  Nothing in the directory is ever deleted by a sweep.
 ``failures.json``
     The chunks whose solver raised in the last run (absent when none did).  Failed
     chunks are *not* checkpointed: a rerun retries them.
 ``.tmp-*``
     Leftovers of a run killed while writing; harmless and safe to delete.
+
+Faults
+------
+Worker processes die with the process that started them (``PR_SET_PDEATHSIG`` on
+Linux, and a watchdog thread everywhere): killing the sweep leaves no orphan.  On a
+Dask cluster, a sweep that has had no worker for ``worker_timeout`` seconds (default
+:data:`DASK_WORKER_TIMEOUT`) marks its pending chunks failed and returns; it warns
+after :data:`DASK_WORKER_WARN` seconds.  A scheduler that does not answer within
+``connect_timeout`` seconds is a :class:`SchedulerUnavailableError`.
 """
 from __future__ import annotations
 
@@ -33,6 +48,8 @@ import logging
 import os
 import pickle
 import sys
+import threading
+import time
 import traceback
 from pathlib import Path
 from typing import Any, Callable, Iterator, Mapping
@@ -41,8 +58,10 @@ import numpy as np
 
 from capbridge.generator.atomic import atomic_target
 from capbridge.status import Status
+from capbridge.validation import CapbridgeInputError
 
-__all__ = ["run_sweep", "SweepResult", "ChunkFailure", "CheckpointMismatchError"]
+__all__ = ["run_sweep", "SweepResult", "ChunkFailure", "CheckpointMismatchError",
+           "SweepFailedError", "SchedulerUnavailableError", "DASK_WORKER_TIMEOUT"]
 
 log = logging.getLogger(__name__)
 
@@ -50,10 +69,25 @@ MANIFEST_NAME = "manifest.json"
 FAILURES_NAME = "failures.json"
 _FORMAT = "capbridge-sweep-1"
 _VALID_STATUS = np.array(sorted(int(s) for s in Status))
+#: the manifest keys that make stored chunk outputs valid (other keys are informative)
+_BINDING_KEYS = ("format", "solver", "settings")
+
+DASK_WORKER_TIMEOUT = 600.0   #: [s] without any Dask worker before pending chunks fail
+DASK_WORKER_WARN = 30.0       #: [s] without any Dask worker before a warning
+DASK_CONNECT_TIMEOUT = 20.0   #: [s] to reach a Dask scheduler given by address
+_DASK_POLL = 1.0              #: [s] between checks of the cluster while waiting
 
 
-class CheckpointMismatchError(ValueError):
-    """The checkpoint directory belongs to a different sweep."""
+class CheckpointMismatchError(CapbridgeInputError):
+    """The checkpoint directory belongs to a different solver or settings."""
+
+
+class SchedulerUnavailableError(CapbridgeInputError):
+    """The Dask scheduler given by address did not answer."""
+
+
+class SweepFailedError(RuntimeError):
+    """Some chunks of a sweep failed: nothing may be computed from their placeholders."""
 
 
 @dataclasses.dataclass
@@ -78,12 +112,34 @@ class SweepResult(dict):
     checkpoints) and ``n_chunks``.
     """
 
-    def __init__(self, arrays, *, failures=(), computed=(), reused=(), n_chunks=0):
+    def __init__(self, arrays, *, failures=(), computed=(), reused=(), n_chunks=0,
+                 checkpoint_dir=None, desc="sweep"):
         super().__init__(arrays)
         self.failures = list(failures)
         self.computed = sorted(computed)
         self.reused = sorted(reused)
         self.n_chunks = int(n_chunks)
+        self.checkpoint_dir = checkpoint_dir
+        self.desc = desc
+
+    def raise_if_failed(self):
+        """Raise :class:`SweepFailedError` ("N chunks failed, rerun to retry") if any
+        chunk failed; return ``self`` otherwise.
+
+        Call it before using the outputs for anything else: failed points hold
+        placeholders (NaN, status NOT_CONVERGED), never results.
+        """
+        if not self.failures:
+            return self
+        first = self.failures[0]
+        kept = (f"the {len(self.computed) + len(self.reused)} finished chunks are kept in "
+                f"{self.checkpoint_dir}; rerun the same command to retry the failed ones"
+                if self.checkpoint_dir is not None else
+                "rerun to retry (with a checkpoint directory, finished chunks are kept)")
+        raise SweepFailedError(
+            f"{self.desc}: {len(self.failures)} of {self.n_chunks} chunks failed "
+            f"(first: chunk {first.index}, points {first.start}:{first.stop}: "
+            f"{first.error.splitlines()[0] if first.error else '?'}); {kept}")
 
 
 # --------------------------------------------------------------------------------------
@@ -190,15 +246,16 @@ def _save_chunk(path: Path, index, start, stop, chunk_inputs, outputs) -> None:
     _atomic_write(path, lambda f: np.savez(f, **arrays))
 
 
-def _load_chunk(path: Path, index, start, stop, chunk_inputs):
-    """Outputs stored in ``path`` if it is a sound checkpoint of this chunk, else None."""
+def _load_chunk(path: Path, chunk_inputs):
+    """Outputs stored in ``path`` if it is a sound checkpoint of these inputs, else None.
+
+    The stored inputs must equal ``chunk_inputs`` bitwise (names, dtypes, values); the
+    chunk's position in the sweep that wrote it does not matter.
+    """
     try:
         # open the file ourselves: np.load leaks its handle on a truncated zip
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
-        if (int(data["meta__index"]), int(data["meta__start"]),
-                int(data["meta__stop"])) != (index, start, stop):
-            raise ValueError("chunk position differs")
         stored_in = {k[4:]: v for k, v in data.items() if k.startswith("in__")}
         if set(stored_in) != set(chunk_inputs):
             raise ValueError("input names differ")
@@ -207,7 +264,8 @@ def _load_chunk(path: Path, index, start, stop, chunk_inputs):
             if s.dtype != v.dtype or s.shape != v.shape or s.tobytes() != v.tobytes():
                 raise ValueError(f"stored input {k!r} differs")
         outputs = {k[5:]: v for k, v in data.items() if k.startswith("out__")}
-        return _validate_outputs(outputs, stop - start, chunk_inputs)
+        m = len(next(iter(chunk_inputs.values())))
+        return _validate_outputs(outputs, m, chunk_inputs)
     except Exception as exc:  # corrupt, truncated or foreign: recompute
         log.warning("checkpoint %s is unusable (%s: %s); recomputing",
                     path.name, type(exc).__name__, exc)
@@ -220,24 +278,40 @@ def _solver_name(fn) -> str:
 
 
 def _prepare_manifest(ckdir: Path, manifest: dict) -> None:
+    """Refuse a directory of another solver or settings; record this sweep's manifest.
+
+    Only :data:`_BINDING_KEYS` decide: other inputs are matched chunk by chunk.
+    """
     path = ckdir / MANIFEST_NAME
     if path.exists():
         try:
             old = json.loads(path.read_text())
+            if not isinstance(old, dict):
+                raise ValueError("not a JSON object")
         except (OSError, ValueError) as exc:
             raise CheckpointMismatchError(
-                f"checkpoint manifest {path} is unreadable ({exc}); delete the directory "
-                f"or choose another checkpoint_dir") from exc
-        diffs = [k for k in manifest if old.get(k) != manifest[k]]
+                f"checkpoint manifest {path} is unreadable ({exc}); choose another "
+                f"checkpoint directory (nothing in this one was changed)") from None
+        diffs = [k for k in _BINDING_KEYS if old.get(k) != manifest[k]]
         if diffs:
             detail = "; ".join(f"{k}: stored {old.get(k)!r}, this sweep {manifest[k]!r}"
                                for k in diffs)
             raise CheckpointMismatchError(
-                f"checkpoint directory {ckdir} belongs to a different sweep ({detail}). "
-                f"Use a new checkpoint_dir, or delete this one to start over.")
-        return
+                f"checkpoint directory {ckdir} belongs to a different solver or settings "
+                f"({detail}); its chunks do not answer this sweep. Choose another "
+                f"checkpoint directory (nothing in this one was changed).")
+        if all(old.get(k) == v for k, v in manifest.items()):
+            return
     text = json.dumps(manifest, indent=1, sort_keys=True)
     _atomic_write(path, lambda f: f.write(text), mode="w")
+
+
+def _stored_chunks(ckdir: Path) -> dict[str, list[Path]]:
+    """Chunk files of a checkpoint directory by the hash prefix in their names."""
+    found: dict[str, list[Path]] = {}
+    for p in ckdir.glob("chunk_*_*.npz"):
+        found.setdefault(p.stem.rsplit("_", 1)[-1], []).append(p)
+    return found
 
 
 # --------------------------------------------------------------------------------------
@@ -263,8 +337,40 @@ def _failure(index, exc, prefix=""):
             "".join(traceback.format_exception(exc)))
 
 
+def _die_with_parent(parent_pid: int) -> None:
+    """Worker initializer: end this process when ``parent_pid`` goes away.
+
+    A killed sweep must not leave workers computing for nobody (or waiting forever on
+    the task queue).  Linux's ``PR_SET_PDEATHSIG`` kills at once; a daemon thread
+    polling the parent id covers other systems and a parent that died before the
+    ``prctl`` call.
+    """
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, 9, 0, 0, 0)  # PR_SET_PDEATHSIG = 1, SIGKILL = 9
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch():
+        while True:
+            time.sleep(1.0)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="capbridge-parent-watch", daemon=True).start()
+
+
+def _pool(n):
+    return cf.ProcessPoolExecutor(max_workers=n, initializer=_die_with_parent,
+                                  initargs=(os.getpid(),))
+
+
 def _iter_processes(solve_chunk, tasks, n_jobs) -> Iterator[tuple]:
-    ex = cf.ProcessPoolExecutor(max_workers=max(1, min(n_jobs, len(tasks))))
+    ex = _pool(max(1, min(n_jobs, len(tasks))))
     clean, broken = False, []
     try:
         futures = {ex.submit(_run_chunk, solve_chunk, i, ci): i for i, ci in tasks}
@@ -294,7 +400,7 @@ def _iter_isolated(solve_chunk, tasks, n_jobs) -> Iterator[tuple]:
         while pending or active:
             while pending and len(active) < n_jobs:
                 i, ci = pending.pop(0)
-                ex = cf.ProcessPoolExecutor(max_workers=1)
+                ex = _pool(1)
                 active[ex.submit(_run_chunk, solve_chunk, i, ci)] = (i, ex)
             done, _ = cf.wait(active, return_when=cf.FIRST_COMPLETED)
             for fut in done:
@@ -310,28 +416,70 @@ def _iter_isolated(solve_chunk, tasks, n_jobs) -> Iterator[tuple]:
             ex.shutdown(wait=False, cancel_futures=True)
 
 
-def _iter_dask(solve_chunk, tasks, scheduler) -> Iterator[tuple]:
+def _n_workers(client) -> int:
     try:
-        from dask.distributed import Client, as_completed
+        return len(client.scheduler_info().get("workers", {}))
+    except Exception:  # scheduler gone or busy: no worker we can count on
+        return 0
+
+
+def _iter_dask(solve_chunk, tasks, scheduler, worker_timeout=DASK_WORKER_TIMEOUT,
+               connect_timeout=DASK_CONNECT_TIMEOUT) -> Iterator[tuple]:
+    try:
+        from dask.distributed import Client, wait
     except ImportError as exc:
         raise ImportError(
             "run_sweep(scheduler=...) needs dask.distributed: "
             "pip install 'capbridge[dask]' (or 'dask[distributed]')") from exc
     own = isinstance(scheduler, str)
-    client = Client(scheduler) if own else scheduler  # an existing Client is reused
+    if own:
+        try:
+            client = Client(scheduler, timeout=connect_timeout)
+        except (OSError, TimeoutError, ValueError) as exc:
+            first = str(exc).splitlines()[0] if str(exc) else ""
+            raise SchedulerUnavailableError(
+                f"Dask scheduler {scheduler!r} did not answer within {connect_timeout:g} s "
+                f"({type(exc).__name__}: {first}); give the address of a running "
+                f"scheduler, e.g. tcp://host:8786") from None
+    else:
+        client = scheduler  # an existing Client is reused
     futures, clean = [], False
     try:
         futures = [client.submit(_run_chunk, solve_chunk, i, ci, pure=False)
                    for i, ci in tasks]
         index_of = {fut.key: i for fut, (i, _) in zip(futures, tasks)}
-        for fut in as_completed(futures):
+        pending, idle_since, warned = set(futures), None, False
+        while pending:
             try:
-                yield fut.result()
-            except Exception as exc:  # e.g. KilledWorker, CancelledError
-                yield _failure(index_of[fut.key], exc)
-            finally:
-                fut.release()
-        clean = True
+                done, pending = wait(pending, timeout=_DASK_POLL,
+                                     return_when="FIRST_COMPLETED")
+            except TimeoutError:
+                done = set()
+            for fut in done:
+                try:
+                    yield fut.result()
+                except Exception as exc:  # e.g. KilledWorker, CancelledError
+                    yield _failure(index_of[fut.key], exc)
+                finally:
+                    fut.release()
+            if done or _n_workers(client) > 0:
+                idle_since, warned = None, False
+                continue
+            now = time.monotonic()
+            idle_since = idle_since or now
+            if now - idle_since >= DASK_WORKER_WARN and not warned:
+                warned = True
+                log.warning("no Dask worker for %.0f s; %d chunk(s) waiting (they fail "
+                            "after %.0f s without a worker)", now - idle_since,
+                            len(pending), worker_timeout)
+            if now - idle_since >= worker_timeout:
+                msg = (f"no Dask worker on the cluster for {worker_timeout:g} s "
+                       f"(worker_timeout)")
+                log.error("%s: %d pending chunk(s) marked failed", msg, len(pending))
+                for fut in pending:
+                    yield index_of[fut.key], None, f"NoWorkers: {msg}", ""
+                break
+        clean = not pending
     finally:
         if futures and not clean:
             try:
@@ -367,7 +515,9 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
               scheduler: Any = None,
               progress: bool = True,
               desc: str = "sweep",
-              settings: Mapping[str, Any] | None = None) -> SweepResult:
+              settings: Mapping[str, Any] | None = None,
+              worker_timeout: float = DASK_WORKER_TIMEOUT,
+              connect_timeout: float = DASK_CONNECT_TIMEOUT) -> SweepResult:
     """Solve ``solve_chunk`` over all points of ``inputs``, in parallel and resumably.
 
     Parameters
@@ -400,6 +550,11 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
     settings : dict, optional
         JSON-serialisable description of the solver settings, stored in the manifest:
         a checkpoint directory made with other settings is refused.
+    worker_timeout : float
+        Dask only: seconds without any worker on the cluster after which the pending
+        chunks are marked failed (default :data:`DASK_WORKER_TIMEOUT`, 600 s).
+    connect_timeout : float
+        Dask only: seconds to reach a scheduler given by address.
 
     Returns
     -------
@@ -409,12 +564,15 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
         raised: their points have status ``NOT_CONVERGED`` and NaN outputs (an integer
         output column is then promoted to float64).  A sweep never stops on a solver
         exception; failed chunks are logged, not checkpointed, and retried by a rerun.
+        Call ``.raise_if_failed()`` before computing anything from the outputs.
 
     Raises
     ------
     CheckpointMismatchError
-        ``checkpoint_dir`` holds a sweep with other inputs, chunk size, solver or
-        settings.
+        ``checkpoint_dir`` holds a sweep of another solver or other settings, or its
+        manifest is unreadable, or it cannot be created or written.
+    SchedulerUnavailableError
+        ``scheduler`` is an address that does not answer.
     """
     from tqdm import tqdm
 
@@ -443,7 +601,13 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
     ckdir = None
     if checkpoint_dir is not None:
         ckdir = Path(checkpoint_dir)
-        ckdir.mkdir(parents=True, exist_ok=True)
+        try:
+            ckdir.mkdir(parents=True, exist_ok=True)
+            _check_writable_dir(ckdir)
+        except OSError as exc:
+            raise CheckpointMismatchError(
+                f"checkpoint directory {ckdir} cannot be used: "
+                f"{exc.strerror or exc} ({type(exc).__name__})") from None
         if settings is not None:
             settings = json.loads(json.dumps(settings, sort_keys=True, default=str))
         _prepare_manifest(ckdir, {
@@ -460,13 +624,16 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
     results: dict[int, dict[str, np.ndarray]] = {}
     reused: list[int] = []
     if ckdir is not None:
-        for i, ((s, e), c) in enumerate(zip(bounds, chunks)):
-            path = _chunk_path(ckdir, i, hashes[i])
-            if path.exists():
-                out = _load_chunk(path, i, s, e, c)
+        stored = _stored_chunks(ckdir)
+        for i, c in enumerate(chunks):
+            own = _chunk_path(ckdir, i, hashes[i])
+            candidates = sorted(stored.get(hashes[i][:16], []), key=lambda p: p != own)
+            for path in candidates:
+                out = _load_chunk(path, c)
                 if out is not None:
                     results[i] = out
                     reused.append(i)
+                    break
     pending = [i for i in range(len(bounds)) if i not in results]
     if reused:
         log.info("%s: %d of %d chunks reused from %s", desc, len(reused), len(bounds), ckdir)
@@ -486,7 +653,8 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
         if pending:
             tasks = [(i, {k: v.copy() for k, v in chunks[i].items()}) for i in pending]
             if scheduler is not None:
-                stream = _iter_dask(solve_chunk, tasks, scheduler)
+                stream = _iter_dask(solve_chunk, tasks, scheduler, worker_timeout,
+                                    connect_timeout)
             elif n_jobs == 1:
                 stream = _iter_serial(solve_chunk, tasks)
             else:
@@ -519,6 +687,7 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
 
     # reference outputs: those of the first successful chunk
     ref = next((results[i] for i in range(len(bounds)) if i in results), None)
+    computed_now = set(computed)
     if ref is not None:
         for i in sorted(results):
             if set(results[i]) != set(ref):
@@ -526,7 +695,8 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
                 for lst in (computed, reused):
                     if i in lst:
                         lst.remove(i)
-                if ckdir is not None:  # do not trust it again: a rerun recomputes it
+                if ckdir is not None and i in computed_now:
+                    # written by this run and inconsistent: a rerun recomputes it
                     _chunk_path(ckdir, i, hashes[i]).unlink(missing_ok=True)
                 fail(i, f"outputs {sorted(out)} differ from those of chunk "
                         f"{min(results)}: {sorted(ref)}", "")
@@ -561,4 +731,14 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
         log.warning("%s: %d of %d chunks failed (%d points set to NOT_CONVERGED)",
                     desc, len(failures), len(bounds), pts)
     return SweepResult(out_arrays, failures=[failures[i] for i in sorted(failures)],
-                       computed=computed, reused=reused, n_chunks=len(bounds))
+                       computed=computed, reused=reused, n_chunks=len(bounds),
+                       checkpoint_dir=ckdir, desc=desc)
+
+
+def _check_writable_dir(path: Path) -> None:
+    """Raise ``OSError`` unless a file can be created in ``path`` (``os.access`` says
+    yes to root even where writing fails)."""
+    import tempfile
+
+    with tempfile.NamedTemporaryFile(dir=path, prefix=".tmp-probe-"):
+        pass

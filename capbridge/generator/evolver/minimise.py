@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from capbridge.status import Status
+from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
 from . import checks, forces, parse, runner, script
@@ -139,6 +139,13 @@ class BridgeResult:
 
     @property
     def converged(self):
+        """A result is there: CONVERGED, or ABOVE_TOLERANCE (its estimated error is
+        above ``etol``/``ftol``; see ``status`` and ``error_estimate``)."""
+        return self.status in HAS_RESULT
+
+    @property
+    def within_tolerance(self):
+        """The result's own error estimates are within ``etol`` and ``ftol``."""
         return self.status == Status.CONVERGED
 
     def axial_force(self, i=0, j=1, which="forces"):
@@ -433,8 +440,9 @@ def minimise(problem, settings=None):
     """Minimise the surface energy of ``problem`` (a :class:`.problem.Problem`).
 
     Returns a :class:`BridgeResult`; its ``status`` is ``Status.CONVERGED`` only when every
-    check passed at the final level and the estimated errors are within tolerance (or the
-    maximum refinement was reached with all checks passing, then with a warning).
+    check passed at the final level and the estimated errors are within tolerance;
+    ``Status.ABOVE_TOLERANCE`` when the maximum refinement (or the last level passing
+    the checks) was reached with an estimate above ``etol``/``ftol`` (with a warning).
     """
     s = settings or Settings()
     t_start = time.monotonic()
@@ -579,14 +587,24 @@ def _levels(R, res):
         return
     if final_fail:
         res.warnings.append(f"stopped at level {records[-1].level}: {final_fail}")
+    _set_final_status(res, s, final_fail)
+
+
+def _set_final_status(res, s, final_fail=None):
+    """CONVERGED when the result's own error estimates are within ``etol``/``ftol``;
+    otherwise (finest level allowed, or the last level that passed the checks)
+    ABOVE_TOLERANCE, with the estimates in ``reason`` and ``warnings``.  A single level
+    (``max_refine=0``) has no estimate (infinite): never CONVERGED."""
     ok_e = res.error_estimate.get("energy_rel", np.inf) <= s.etol
     ok_f = res.error_estimate.get("force_rel", np.inf) <= s.ftol
-    res.status = Status.CONVERGED
     if ok_e and ok_f:
+        res.status = Status.CONVERGED
         res.reason = "converged"
     else:
-        res.reason = ("maximum refinement reached" if final_fail is None
-                      else "finest level that passed all checks")
+        res.status = Status.ABOVE_TOLERANCE
+        res.reason = ("maximum refinement reached, error estimate above tolerance"
+                      if final_fail is None else
+                      "finest level that passed all checks, error estimate above tolerance")
         res.warnings.append(
             f"error estimates (energy {res.error_estimate.get('energy_rel', np.nan):.2g}, "
             f"force {res.error_estimate.get('force_rel', np.nan):.2g}) above tolerance "
