@@ -1,16 +1,22 @@
-"""``capbridge`` command line: solve, lookup, generate, info, demo."""
+"""``capbridge`` command line: solve, lookup, generate, info, demo.
+
+Every user error ends in one line ``capbridge: error: ...`` and exit status 2 (``--debug``
+anywhere on the line shows the traceback instead); a sweep with failed chunks exits 3
+("N chunks failed, rerun to retry"), an internal error 1.
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from capbridge.reproduce import STUDIES
-from capbridge.status import status_name
-from capbridge.validation import CapbridgeInputError
+from capbridge.status import Status, status_name
+from capbridge.validation import CapbridgeInputError, check_range, interval_text
 
 DEFAULT_TABLE = Path(__file__).resolve().parent.parent / "data" / "doublet_table.nc"
 
@@ -30,9 +36,12 @@ def cmd_solve_doublet(args):
         raise CapbridgeInputError("give exactly one of --V (volume control) or --P (suction control)")
     if args.V is not None:
         r = solve_doublet(args.d, args.V, args.theta, args.ratio, args.theta2)
+        volume = args.V   # the requested volume, also when the solve failed
     else:
         r = solve_doublet_suction(args.d, args.P, args.theta, args.ratio, args.theta2)
-    out = {"d": args.d, "V": r["volume"], "theta": args.theta, "theta2": args.theta2 or args.theta,
+        volume = r["volume"]
+    out = {"d": args.d, "V": volume, "theta": args.theta,
+           "theta2": args.theta if args.theta2 is None else args.theta2,
            "ratio": args.ratio, "F": r["force"], "P": r["pressure"], "beta1": r["beta1"],
            "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
            "energy": r["energy"], "status": status_name(r["status"]),
@@ -48,28 +57,78 @@ def _load_surrogate(path, out_of_range="raise"):
     path = Path(path)
     if not path.exists():
         raise CapbridgeInputError(f"table {path} not found; make it with `capbridge generate doublet`")
-    return DoubletSurrogate(out_of_range=out_of_range).fit(path)
+    return DoubletSurrogate(out_of_range=out_of_range, clip_hint="--clip").fit(path)
+
+
+#: lookup doublet: CSV columns read and written (an input column may not be an output)
+LOOKUP_INPUTS = ("d", "V", "theta")
+LOOKUP_OPTIONAL = ("ratio", "theta2")
+LOOKUP_OUTPUTS = {"force": "F", "pressure": "P", "beta1": "beta1", "beta2": "beta2",
+                  "rupture_gap": "d_rupt"}
+LOOKUP_RESERVED = tuple(LOOKUP_OUTPUTS.values()) + ("status", "method")
+
+
+def _check_new_output(path, inputs=(), overwrite=False, flag="--overwrite"):
+    """An output path that can be written and replaces nothing of the user's (checked
+    before computing)."""
+    from capbridge.tabular_io import check_output_path
+
+    path = check_output_path(path)
+    if any(Path(i).exists() and path.exists() and path.samefile(i) for i in inputs):
+        raise CapbridgeInputError(f"--output {path} is the input file; give another name")
+    if path.exists() and not overwrite:
+        raise CapbridgeInputError(f"--output {path} exists; give another name, or {flag} "
+                                  f"to replace it")
+    return path
+
+
+def lookup_points(sur, d, V, theta, ratio, theta2=None):
+    """Answers for CSV points: the table where theta2 == theta, the exact solver elsewhere.
+
+    Returns a dict of the :data:`LOOKUP_OUTPUTS` keys, ``status`` and ``method``
+    ("table" or "exact").  Mixed angles (theta2 != theta) are not in the doublet table;
+    the vectorised exact solver answers them (thousands of points per second).
+    """
+    from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+
+    n = d.size
+    mixed = np.zeros(n, bool) if theta2 is None else ~(theta2 == theta)
+    out = {k: np.full(n, np.nan) for k in LOOKUP_OUTPUTS}
+    status = np.full(n, int(Status.NOT_CONVERGED), np.int8)
+    ratio = np.broadcast_to(np.asarray(ratio, float), (n,))
+    tab = ~mixed
+    if tab.any():
+        r = sur.predict(d[tab], V[tab], theta[tab], ratio[tab])
+        for k in out:
+            out[k][tab] = r[k]
+        status[tab] = r["status"]
+    if mixed.any():
+        args = (V[mixed], theta[mixed], ratio[mixed], theta2[mixed])
+        ex = solve_doublet(d[mixed], *args)
+        for k in ("force", "pressure", "beta1", "beta2"):
+            out[k][mixed] = ex[k]
+        out["rupture_gap"][mixed] = rupture_distance(*args)["gap"]
+        status[mixed] = ex["status"]
+    return out | {"status": status, "method": np.where(mixed, "exact", "table")}
 
 
 def cmd_lookup_doublet(args):
     import pandas as pd
 
-    df = pd.read_csv(args.input)
-    missing = [c for c in ("d", "V", "theta") if c not in df.columns]
-    if missing:
-        raise CapbridgeInputError(
-            f"{args.input}: missing column(s) {missing}; required: d, V, theta (optional ratio), "
-            f"found: {list(df.columns)}")
-    ratio = df["ratio"].to_numpy(float) if "ratio" in df.columns else 1.0
+    from capbridge.tabular_io import read_points_csv
+
+    columns, x = read_points_csv(args.input, LOOKUP_INPUTS, LOOKUP_OPTIONAL, LOOKUP_RESERVED)
+    _check_new_output(args.output, [args.input], args.overwrite)
     sur = _load_surrogate(args.table, "clip" if args.clip else "raise")
-    r = sur.predict(df["d"].to_numpy(float), df["V"].to_numpy(float),
-                    df["theta"].to_numpy(float), ratio)
-    for key, col in (("force", "F"), ("pressure", "P"), ("beta1", "beta1"), ("beta2", "beta2"),
-                     ("rupture_gap", "d_rupt")):
+    r = lookup_points(sur, x["d"], x["V"], x["theta"], x.get("ratio", 1.0), x.get("theta2"))
+    df = pd.DataFrame(columns)
+    for key, col in LOOKUP_OUTPUTS.items():
         df[col] = r[key]
     df["status"] = [status_name(s) for s in r["status"]]
+    df["method"] = r["method"]
     df.to_csv(args.output, index=False)
-    print(f"wrote {len(df)} rows to {args.output}", file=sys.stderr)
+    print(f"wrote {len(df)} rows to {args.output} ({int((r['method'] == 'exact').sum())} "
+          f"by the exact solver: theta2 != theta)", file=sys.stderr)
     return 0
 
 
@@ -78,12 +137,21 @@ def cmd_generate_doublet(args):
                                                    save_doublet_table)
     from capbridge.surrogate.doublet import DoubletSurrogate, holdout_errors
 
-    grid = DoubletGrid.shipped(args.quick, ratios=args.ratios)
+    from capbridge.generator.netcdf_io import check_table_target
+    from capbridge.surrogate.doublet import DEFAULT_REFINE, DEFAULT_THETA_STEP
+
+    ratios = None if args.ratios is None else sorted(set(args.ratios))
+    grid = DoubletGrid.shipped(args.quick, ratios=ratios)
+    # before hours of work: can the table be written, and would it replace another grid?
+    check_table_target(args.output, {k: list(v) for k, v in grid.as_dict().items()},
+                       overwrite=args.overwrite, flag="--overwrite")
     command = "capbridge " + " ".join(sys.argv[1:]) if args.command is None else args.command
     ds = build_doublet_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                              scheduler=args.scheduler, progress=not args.no_progress,
-                             command=command)
-    sur = DoubletSurrogate().fit(ds)
+                             command=command, worker_timeout=args.worker_timeout)
+    sur = DoubletSurrogate(DEFAULT_REFINE, DEFAULT_THETA_STEP).fit(ds)
+    ds.attrs["holdout_refine"] = DEFAULT_REFINE
+    ds.attrs["holdout_theta_step"] = DEFAULT_THETA_STEP
     r = np.asarray(grid.ratio)
     between = np.sqrt(r[1:] * r[:-1])  # halfway (in log) between tabulated ratios
     checks = [(1.0, 0.0)] if 1.0 in grid.ratio else []
@@ -99,7 +167,7 @@ def cmd_generate_doublet(args):
         "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
         "out d* > 0.96 d*_rupt, where dF/dd* diverges at the fold; ratios on the grid and "
         "halfway between (cubic spline across ratio slices)")
-    save_doublet_table(ds, args.output, command=command)
+    save_doublet_table(ds, args.output, command=command, overwrite=args.overwrite)
     print(f"wrote {args.output}", file=sys.stderr)
     return cmd_info_table(argparse.Namespace(table=args.output))
 
@@ -110,12 +178,17 @@ HOLDOUT_BAND = 0.2
 def cmd_info_table(args):
     from capbridge.generator.netcdf_io import read_table
 
-    ds = read_table(args.table)
+    from capbridge.generator.doublet_table import validate_doublet_table
+
+    ds = validate_doublet_table(read_table(args.table), args.table)
     print(f"table: {args.table}")
     print(f"  made by: {ds.attrs.get('capbridge_command')}")
+    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; data checksum: "
+          f"{'verified' if 'data_sha256' in ds.attrs else 'none (table older than checksums)'}")
     for name in ("ratio", "theta", "volume", "s"):
         c = ds[name].values
-        print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  ({ds[name].attrs['long_name']})")
+        print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  "
+              f"({ds[name].attrs.get('long_name', '')})")
     st = ds["status"].values
     print(f"  points: {st.size}, converged: {int((st == 0).sum())}")
     print("  error model (surrogate vs exact, held-out points):")
@@ -131,7 +204,15 @@ def cmd_export_yade(args):
     from capbridge.dem_plugin.yade_export import export_from_solver
 
     out = Path(args.directory)
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise CapbridgeInputError(f"--directory {out} is a file, not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CapbridgeInputError(f"--directory {out} cannot be made: {exc.strerror or exc}") from None
+    from capbridge.tabular_io import check_output_path
+
+    check_output_path(out / "probe", what="--directory")
     for theta in args.theta:
         _, paths = export_from_solver(out, theta, n_gaps=args.n_gaps)
         for p in (paths if isinstance(paths, (list, tuple)) else [paths]):
@@ -142,6 +223,12 @@ def cmd_export_yade(args):
 def cmd_demo(args):
     from capbridge.surrogate.demo import run_demo
 
+    table = Path(args.table)
+    if not table.exists():
+        raise CapbridgeInputError(f"table {table} not found; make it with `capbridge generate doublet`")
+    out = Path(args.output_dir)
+    if out.exists() and not out.is_dir():
+        raise CapbridgeInputError(f"--output-dir {out} is a file, not a directory")
     return run_demo(args.table, args.output_dir)
 
 
@@ -160,8 +247,23 @@ def cmd_coalescence(args):
         except ValueError:
             raise CapbridgeInputError(f"--fractions {args.fractions!r}: give numbers "
                                       "separated by commas, one per bridge") from None
+    if args.radius is not None:
+        from capbridge.surrogate.doublet import SI_RADIUS_RANGE
+
+        check_range("--radius", args.radius, *SI_RADIUS_RANGE, units=" m",
+                    hint="the grain radius in metres (1 mm is 1e-3)")
     geom = triplet_geometry(args.d12, args.d13, args.d23)
-    r = find_coalescence(geom, theta, bridges, fractions, v_max=args.v_max)
+    try:
+        r = find_coalescence(geom, theta, bridges, fractions,
+                             v_max=V_MAX_DEFAULT if args.v_max is None else args.v_max)
+    except CapbridgeInputError as exc:
+        if "v_max" not in str(exc):
+            raise
+        if args.v_max is None:
+            raise CapbridgeInputError(
+                f"at these gaps the bridges first exist at volumes above the default search "
+                f"limit --v-max {V_MAX_DEFAULT:g} ({exc}); give a larger --v-max") from None
+        raise CapbridgeInputError(str(exc).replace("v_max", "--v-max")) from None
     out = {"V_coal": r.V_coal, "criterion": r.criterion,
            "criterion_description": CRITERIA.get(r.criterion, ""), "where": r.where,
            "status": r.status,
@@ -227,8 +329,44 @@ def cmd_reproduce(args):
     return 0
 
 
+V_MAX_DEFAULT = 2.5
+
+# a negative number in any float notation (argparse's own pattern misses "-1e6")
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$",
+                              re.IGNORECASE)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with negative numbers in exponent form as values, and one-line errors."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self._negative_number_matcher = _NEGATIVE_NUMBER
+
+    def error(self, message):
+        print(f"capbridge: error: {self.prog}: {message} (see `{self.prog} --help`)",
+              file=sys.stderr)
+        sys.exit(2)
+
+
+def _number(low=-np.inf, high=np.inf, low_open=False, integer=False):
+    """argparse type: a finite number in [low, high] (``low_open``: (low, high])."""
+    def parse(text):
+        try:
+            v = int(text) if integer else float(text)
+        except ValueError:
+            kind = "an integer" if integer else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
+        if not np.isfinite(v) or v < low or v > high or (low_open and v == low):
+            raise argparse.ArgumentTypeError(
+                f"{v!r} is outside the allowed range {interval_text(low, high, low_open)}")
+        return v
+    return parse
+
+
 def build_parser():
-    p = argparse.ArgumentParser(prog="capbridge", description=__doc__)
+    p = _Parser(prog="capbridge", description=__doc__,
+                epilog="--debug (anywhere): show the traceback of an error")
     sub = p.add_subparsers(dest="command_name", required=True)
 
     solve = sub.add_parser("solve", help="exact solvers").add_subparsers(dest="what", required=True)
@@ -248,18 +386,27 @@ def build_parser():
     ld.add_argument("--output", required=True)
     ld.add_argument("--table", default=str(DEFAULT_TABLE))
     ld.add_argument("--clip", action="store_true",
-                    help="answer outside the table at its edge (status extrapolated) instead of failing")
+                    help="volumes outside the table: answer at its edge, same d*/d*_rupt "
+                         "(status extrapolated, or ruptured) instead of failing")
+    ld.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     ld.set_defaults(func=cmd_lookup_doublet)
 
     gen = sub.add_parser("generate", help="regenerate tables").add_subparsers(dest="what", required=True)
     gd = gen.add_parser("doublet", help="sweep the exact solver into a netCDF table")
     gd.add_argument("--output", default=str(DEFAULT_TABLE))
     gd.add_argument("--quick", action="store_true", help="small grid (tests)")
-    gd.add_argument("--ratios", type=float, nargs="+", default=None)
-    gd.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
+    gd.add_argument("--overwrite", action="store_true",
+                    help="replace an existing --output of another grid")
+    gd.add_argument("--ratios", type=_number(1.0, 1e3), nargs="+", default=None,
+                    help="radius ratios R2/R1 >= 1")
+    gd.add_argument("--jobs", type=_number(1, 4096, integer=True), default=None,
+                    help="worker processes (default: all cores)")
     gd.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    gd.add_argument("--worker-timeout", type=_number(0, np.inf, low_open=True), default=600.0,
+                    help="Dask: seconds without any worker before the sweep fails (default 600)")
     gd.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
-    gd.add_argument("--holdout", type=int, default=600, help="held-out exact points for the error model")
+    gd.add_argument("--holdout", type=_number(10, 10**7, integer=True), default=600,
+                    help="held-out exact points for the error model (>= 10)")
     gd.add_argument("--no-progress", action="store_true")
     gd.add_argument("--command", default=None, help=argparse.SUPPRESS)
     gd.set_defaults(func=cmd_generate_doublet)
@@ -267,8 +414,9 @@ def build_parser():
     ex = sub.add_parser("export-yade", help="write YADE's native capillary files (M(r=...) sets, "
                         "CapillarityEngine input) from the exact suction-controlled solver")
     ex.add_argument("--directory", required=True)
-    ex.add_argument("--theta", type=float, nargs="+", default=[0.0], help="contact angles [deg]")
-    ex.add_argument("--n-gaps", type=int, default=61)
+    ex.add_argument("--theta", type=_number(0.0, 90.0), nargs="+", default=[0.0],
+                    help="contact angles [deg]")
+    ex.add_argument("--n-gaps", type=_number(3, 10**5, integer=True), default=61)
     ex.set_defaults(func=cmd_export_yade)
 
     info = sub.add_parser("info", help="describe a table and its error model")
@@ -292,7 +440,8 @@ def build_parser():
                     help="bridge layout: grain pairs, e.g. 12,13 (default) or 12,13,23")
     co.add_argument("--fractions", default=None,
                     help="share of the total volume held by each bridge, e.g. 0.5,0.5 (default equal)")
-    co.add_argument("--v-max", type=float, default=2.5, help="largest total V* searched")
+    co.add_argument("--v-max", type=float, default=None,
+                    help=f"largest total V* searched (default {V_MAX_DEFAULT:g})")
     co.add_argument("--radius", type=float, default=None,
                     help="grain radius [m]: also report V_coal in ul")
     co.add_argument("--energy", action="store_true",
@@ -310,19 +459,49 @@ def build_parser():
     rep.add_argument("--checkpoint-dir", default=None,
                      help="resumable Evolver checkpoints (default .sweep-checkpoints/miot2021 "
                           "for the full run, none with --quick)")
-    rep.add_argument("--max-refine", type=int, default=None, help="Evolver refinement level")
+    rep.add_argument("--max-refine", type=_number(0, 8, integer=True), default=None,
+                     help="Evolver refinement level")
     rep.add_argument("--no-progress", action="store_true")
     rep.set_defaults(func=cmd_reproduce)
     return p
 
 
 def main(argv=None):
+    """Run the command line; return the exit status (0 ok, 1 internal error, 2 user error,
+    3 not converged or failed chunks, 130 interrupted)."""
+    from capbridge.generator.sweep import SweepFailedError
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CapbridgeInputError, FileNotFoundError) as exc:
-        print(f"capbridge: error: {exc}", file=sys.stderr)
-        return 2
+    except Exception as exc:
+        if debug:
+            raise
+        if isinstance(exc, (CapbridgeInputError, OSError)):
+            code, text = 2, _one_line(exc)
+        elif isinstance(exc, SweepFailedError):
+            code, text = 3, _one_line(exc)
+        else:
+            code, text = 1, (f"internal error ({type(exc).__name__}: {_one_line(exc)}); "
+                             f"rerun with --debug for the traceback")
+        print(f"capbridge: error: {text}", file=sys.stderr)
+        return code
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        print("capbridge: interrupted (finished chunks are kept in the checkpoint directory, "
+              "if any: rerun to continue)", file=sys.stderr)
+        return 130
+
+
+def _one_line(exc):
+    text = str(exc) or type(exc).__name__
+    if isinstance(exc, OSError) and exc.filename is not None:
+        text = f"{exc.filename}: {exc.strerror or text}"
+    return " ".join(text.split())
 
 
 if __name__ == "__main__":

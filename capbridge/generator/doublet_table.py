@@ -8,17 +8,23 @@ distance d*_rupt is solved first, and the table's gap coordinate is
 which keeps the table rectangular, makes rupture exact, and removes the square-root
 singularity of the force at the fold (F* - F*_rupt ~ sqrt(d*_rupt - d*)), so that
 smooth interpolation in s is accurate right up to rupture.
+
+Each phase (rupture distances, then bridges) is a resumable :func:`run_sweep`; a phase
+with failed chunks stops the build (:class:`~capbridge.generator.sweep.SweepFailedError`,
+"N chunks failed, rerun to retry"): nothing is computed from placeholders, and the
+finished chunks stay in the checkpoint directory for the rerun.
 """
 from __future__ import annotations
 
 import dataclasses
+import json
 import shlex
 import sys
 
 import numpy as np
 import xarray as xr
 
-from capbridge.generator.netcdf_io import write_table
+from capbridge.generator.netcdf_io import TableError, validate_table, write_table
 from capbridge.generator.sweep import run_sweep
 from capbridge.generator.young_laplace import SolverSettings, rupture_distance, solve_doublet
 from capbridge.status import Status, cf_flag_attributes
@@ -40,6 +46,9 @@ ATTRS = {
     "rupture_force": dict(units="1", long_name="force F* at rupture"),
 }
 
+
+#: units a doublet table must carry (angles in degrees, the rest dimensionless)
+UNITS = {name: a["units"] for name, a in ATTRS.items()}
 
 SHIPPED_RATIOS = (1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 3.0, 4.0, 5.0, 10.0)  # YADE's M(r=...) set
 SHIPPED_THETA_MAX = 80.0
@@ -99,15 +108,23 @@ def bridge_chunk(gap, volume, theta, ratio):
 
 def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
                         scheduler=None, progress=True, command=None,
-                        chunk_size=128) -> xr.Dataset:
-    """Solve every grid point exactly and return the table as a labelled Dataset."""
+                        chunk_size=128, worker_timeout=None) -> xr.Dataset:
+    """Solve every grid point exactly and return the table as a labelled Dataset.
+
+    Raises :class:`~capbridge.generator.sweep.SweepFailedError` after a phase with
+    failed chunks (finished ones are kept in ``checkpoint_dir`` for the rerun).
+    ``worker_timeout``: see :func:`run_sweep` (Dask; default its 600 s).
+    """
+    from capbridge.generator.sweep import DASK_WORKER_TIMEOUT
+
+    wt = DASK_WORKER_TIMEOUT if worker_timeout is None else float(worker_timeout)
     settings = SolverSettings()
     R, T, V = np.meshgrid(grid.ratio, grid.theta, grid.volume, indexing="ij")
     ck = None if checkpoint_dir is None else f"{checkpoint_dir}/rupture"
     rup = run_sweep(rupture_chunk, {"volume": V.ravel(), "theta": T.ravel(), "ratio": R.ravel()},
                     checkpoint_dir=ck, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
                     desc="rupture distances", chunk_size=max(8, chunk_size // 8),
-                    settings=settings.as_dict())
+                    settings=settings.as_dict(), worker_timeout=wt).raise_if_failed()
     shape3 = V.shape
     d_r = rup["rupture_gap"].reshape(shape3)
     s = np.asarray(grid.s)
@@ -119,22 +136,26 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
            "volume": np.broadcast_to(V[..., None], gap_in.shape).ravel(),
            "theta": np.broadcast_to(T[..., None], gap_in.shape).ravel(),
            "ratio": np.broadcast_to(R[..., None], gap_in.shape).ravel()}
+    # only where the rupture distance was found: the other points have no gap to solve
+    # at (they stay NOT_CONVERGED); nothing is solved at a placeholder gap
     ok_pts = np.isfinite(pts["gap"])
-    pts["gap"] = np.where(ok_pts, pts["gap"], 0.0)  # placeholder where rupture failed; flagged below
     ck = None if checkpoint_dir is None else f"{checkpoint_dir}/bridges"
-    res = run_sweep(bridge_chunk, pts, checkpoint_dir=ck, n_jobs=n_jobs, scheduler=scheduler,
-                    progress=progress, desc="bridges", chunk_size=chunk_size,
-                    settings=settings.as_dict())
+    res = run_sweep(bridge_chunk, {k: v[ok_pts] for k, v in pts.items()}, checkpoint_dir=ck,
+                    n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc="bridges",
+                    chunk_size=chunk_size, settings=settings.as_dict(),
+                    worker_timeout=wt).raise_if_failed()
     shape4 = shape3 + (s.size,)
     data = {}
     for name in OUTPUTS:
+        flat = np.full(ok_pts.size, np.nan)
+        flat[ok_pts] = res[name]
         full = np.full(shape4, np.nan)
-        full[..., inner] = res[name].reshape(gap_in.shape)
+        full[..., inner] = flat.reshape(gap_in.shape)
         data[name] = full
     status = np.full(shape4, int(Status.NOT_CONVERGED), np.int8)
-    st_in = res["status"].reshape(gap_in.shape).astype(np.int8)
-    st_in[~ok_pts.reshape(gap_in.shape)] = Status.NOT_CONVERGED
-    status[..., inner] = st_in
+    st_flat = np.full(ok_pts.size, int(Status.NOT_CONVERGED), np.int8)
+    st_flat[ok_pts] = res["status"]
+    status[..., inner] = st_flat.reshape(gap_in.shape)
     rup_ok = rup["status"].reshape(shape3) == Status.CONVERGED
     for name, key in (("force", "rupture_force"), ("pressure", "rupture_pressure"),
                       ("beta1", "rupture_beta1"), ("beta2", "rupture_beta2"),
@@ -161,7 +182,7 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
                 "s": ("s", s, ATTRS["s"])},
         attrs={"title": "capbridge doublet capillary-force table (exact Young-Laplace, no gravity)",
                "normalising_radius": "R1, the smaller sphere; ratio = R2/R1",
-               "grid": str(grid.as_dict()),
+               "grid": json.dumps(grid.as_dict()),
                "capbridge_command": command or _this_command(),
                "solver_settings": str(settings.as_dict())})
     return ds
@@ -171,7 +192,51 @@ def _this_command():
     return " ".join(shlex.quote(a) for a in ["capbridge"] + sys.argv[1:])
 
 
-def save_doublet_table(ds: xr.Dataset, path, command=None):
-    """Write the table with CF attributes and provenance (see netcdf_io.write_table)."""
+def save_doublet_table(ds: xr.Dataset, path, command=None, overwrite=False):
+    """Write the table with CF attributes and provenance (see netcdf_io.write_table).
+
+    An existing file of another grid is replaced only with ``overwrite=True``.
+    """
     write_table(ds, path, command=command or ds.attrs.get("capbridge_command", _this_command()),
-                solver_settings=SolverSettings().as_dict())
+                solver_settings=SolverSettings().as_dict(), overwrite=overwrite)
+
+
+def validate_doublet_table(ds: xr.Dataset, source="table") -> xr.Dataset:
+    """Refuse a doublet table whose axes, units or values are not physical.
+
+    Beyond :func:`capbridge.generator.netcdf_io.validate_table` (increasing axes, units,
+    checksum): the doublet units (:data:`UNITS`); ratio >= 1, theta in [0, 180) deg,
+    V* > 0, s in [0, 1]; where converged, filling angles in [0, 180] deg, neck radius
+    and rupture distance > 0, and |F*| <= 2 ratio/(1 + ratio), the largest force two
+    spheres can exert through a bridge (contact, V* -> 0, theta = 0: Derjaguin's
+    2 pi gamma R_eff with R_eff = R1 R2/(R1 + R2)).  Raises :class:`TableError`.
+    """
+    validate_table(ds, source, UNITS)
+    missing = [v for v in OUTPUTS + ("status", "rupture_gap", "rupture_status") if v not in ds]
+    missing += [c for c in ("ratio", "theta", "volume", "s") if c not in ds.coords]
+    if missing:
+        raise TableError(f"{source} is not a complete capbridge doublet table: missing {missing}")
+    axes = {"ratio": (1.0, np.inf, "[1, inf)"), "theta": (0.0, 180.0 - 1e-12, "[0, 180)"),
+            "volume": (1e-300, np.inf, "(0, inf)"), "s": (0.0, 1.0, "[0, 1]")}
+    for name, (lo, hi, text) in axes.items():
+        v = ds[name].values
+        if v.min() < lo or v.max() > hi:
+            raise TableError(f"{source}: coordinate {name} spans [{v.min():g}, {v.max():g}], "
+                             f"outside the physical range {text}")
+    ok = ds["status"].values == Status.CONVERGED
+    limit = (2 * ds["ratio"] / (1 + ds["ratio"])).values.reshape(-1, *(1,) * 3)
+    checks = {"force": np.abs(ds["force"].values) <= limit * (1 + 1e-6),
+              "beta1": (ds["beta1"].values >= 0) & (ds["beta1"].values <= 180),
+              "beta2": (ds["beta2"].values >= 0) & (ds["beta2"].values <= 180),
+              "neck_radius": ds["neck_radius"].values > 0}
+    for name, good in checks.items():
+        bad = ok & ~good
+        if bad.any():
+            i = tuple(int(k) for k in np.argwhere(bad)[0])
+            raise TableError(f"{source}: {name}={ds[name].values[i]!r} at index {i} (ratio, "
+                             f"theta, volume, s) is not physical for a converged point "
+                             f"(|F*| <= 2 ratio/(1+ratio), angles in [0, 180], neck > 0)")
+    rok = ds["rupture_status"].values == Status.CONVERGED
+    if np.any(rok & ~(ds["rupture_gap"].values > 0)):
+        raise TableError(f"{source}: a converged rupture distance is not positive")
+    return ds

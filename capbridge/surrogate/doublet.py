@@ -15,9 +15,27 @@ import xarray as xr
 from scipy.interpolate import make_interp_spline
 
 from capbridge.status import Status
-from capbridge.validation import CapbridgeInputError, check_range
+from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 VARIABLES = ("force", "pressure", "beta1", "beta2")
+
+#: fine-grid settings with which a table's stored error model is measured when the
+#: table does not say otherwise (``holdout_refine``, ``holdout_theta_step`` attributes)
+DEFAULT_REFINE = 6
+DEFAULT_THETA_STEP = 0.5
+#: memory bounds of the fine grid (about 100 MB per variable and ratio slice)
+MAX_REFINE = 12
+MIN_THETA_STEP = 0.1
+
+#: plausible SI inputs of :meth:`DoubletSurrogate.predict_si`: a value outside is
+#: almost surely a unit slip (radii in mm, gamma in mN/m), refused rather than answered
+SI_RADIUS_RANGE = (1e-7, 0.1)            # [m]: 0.1 um to 10 cm grains
+SI_SURFACE_TENSION_RANGE = (1e-3, 2.0)   # [N/m]: liquids to molten metals
+
+#: exponent of the rupture distance in V*: d*_rupt ~ (1 + theta/2) V*^(1/3)
+#: (Lian, Thornton & Adams 1993), used to keep the state (bridge or none) when a
+#: volume outside the table is clipped
+_RUPTURE_EXPONENT = 1.0 / 3.0
 
 
 def _refine_axis(values, axis, coarse, fine):
@@ -57,26 +75,55 @@ class DoubletSurrogate:
         Fine-grid nodes per coarse interval along log V* and s (default 6).
     theta_step : float
         Fine-grid spacing in theta [deg] (default 0.5).
+        Must not be coarser than the refinement with which the table's error model
+        was measured (checked by :meth:`fit`): a coarser grid would answer with a
+        larger error than the table states.
+    theta_step : float
+        Fine-grid spacing in theta [deg] (default 0.5); at most the spacing of the
+        error model, at least 0.1.
     out_of_range : {"raise", "clip"}
-        Behaviour for V* or theta outside the table: ``"raise"`` (default) a
-        CapbridgeInputError naming the value and the table's range; ``"clip"`` answers
-        at the nearest edge of the table with status EXTRAPOLATED.
+        Behaviour for V* outside the table: ``"raise"`` (default) a CapbridgeInputError
+        naming the value and the table's range; ``"clip"`` answers at the nearest
+        edge of the table with status EXTRAPOLATED, at the same relative position on
+        the branch (d*/d*_rupt, with d*_rupt scaled as V*^(1/3)), so a bridge beyond
+        its rupture distance is RUPTURED, never a force.  Theta and ratio outside the
+        table are always errors: another contact angle is another bridge.
+    clip_hint : str
+        How the user turns clipping on, named in out-of-table messages (the command
+        line passes ``"--clip"``).
     """
 
-    def __init__(self, refine=6, theta_step=0.5, out_of_range="raise"):
-        if out_of_range not in ("raise", "clip"):
-            raise ValueError(f"out_of_range={out_of_range!r}; use 'raise' or 'clip'")
-        self.refine = int(refine)
-        self.theta_step = float(theta_step)
+    def __init__(self, refine=DEFAULT_REFINE, theta_step=DEFAULT_THETA_STEP,
+                 out_of_range="raise", clip_hint="out_of_range='clip'"):
+        check_choice("out_of_range", out_of_range, ("raise", "clip"))
+        self.refine = check_int("refine", refine, 1, MAX_REFINE,
+                                hint="fine-grid nodes per table interval")
+        self.theta_step = float(check_range("theta_step", theta_step, MIN_THETA_STEP, 90.0,
+                                            units=" deg"))
         self.out_of_range = out_of_range
+        self.clip_hint = clip_hint
 
     # ----------------------------------------------------------------------------- fit
     def fit(self, table):
-        """Load and validate a table (path or Dataset); refinement is done lazily."""
-        ds = table if isinstance(table, xr.Dataset) else _open(table)
-        missing = [v for v in VARIABLES + ("status", "rupture_gap") if v not in ds]
-        if missing:
-            raise ValueError(f"not a capbridge doublet table: missing variables {missing}")
+        """Load and validate a table (path or Dataset); refinement is done lazily.
+
+        The table is checked (:func:`~capbridge.generator.doublet_table.validate_doublet_table`:
+        axes, units, checksum, physical bounds) and so are this surrogate's
+        refinement settings against those of the table's error model.
+        """
+        from capbridge.generator.doublet_table import validate_doublet_table
+
+        if isinstance(table, xr.Dataset):
+            ds = validate_doublet_table(table, "doublet table (Dataset)")
+        else:
+            ds = validate_doublet_table(_open(table), str(table))
+        if any(k.startswith("holdout_") for k in ds.attrs):
+            ref = int(ds.attrs.get("holdout_refine", DEFAULT_REFINE))
+            step = float(ds.attrs.get("holdout_theta_step", DEFAULT_THETA_STEP))
+            keep = "the table's stored error model does not hold on a coarser grid"
+            check_int("refine", self.refine, ref, MAX_REFINE, hint=keep)
+            check_range("theta_step", self.theta_step, MIN_THETA_STEP, step, units=" deg",
+                        hint=keep)
         self.table_ = ds
         self.ratios_ = np.asarray(ds["ratio"].values, float)
         self.theta_ = np.asarray(ds["theta"].values, float)
@@ -133,20 +180,26 @@ class DoubletSurrogate:
         lims = {"volume V*": (volume, self.volume_[0], self.volume_[-1]),
                 "theta": (theta, self.theta_[0], self.theta_[-1]),
                 "ratio": (ratio, self.ratios_[0], self.ratios_[-1])}
-        clipped = {}
         for name, (x, lo, hi) in lims.items():
             outside = (x < lo * (1 - 1e-12)) | (x > hi * (1 + 1e-12))
             if np.any(outside):
-                if self.out_of_range == "raise" or name == "ratio":
-                    first = np.asarray(x)[outside].flat[0]
+                first = np.asarray(x)[outside].flat[0]
+                msg = f"{name}={first!r} is outside the table's range [{lo:g}, {hi:g}]"
+                if name != "volume V*":
+                    # clipping would answer for another contact angle or grain pair
                     raise CapbridgeInputError(
-                        f"{name}={first!r} is outside the table's range [{lo:g}, {hi:g}]; "
-                        "use a table that covers it, or out_of_range='clip' to answer at "
-                        "the table's edge (status 'extrapolated')")
+                        f"{msg}; use a table that covers it, or the exact solver "
+                        "(capbridge solve doublet / young_laplace.solve_doublet)")
+                if self.out_of_range == "raise":
+                    raise CapbridgeInputError(
+                        f"{msg}; use a table that covers it, or {self.clip_hint} to answer "
+                        "at the table's edge (status 'extrapolated')")
                 status = np.where(np.broadcast_to(outside, status.shape), Status.EXTRAPOLATED,
                                   status)
-            clipped[name] = np.clip(x, lo, hi)
-        return gap, clipped["volume V*"], clipped["theta"], clipped["ratio"], status
+        v_edge = np.clip(volume, self.volume_[0], self.volume_[-1])
+        # gap scaled so that d*/d*_rupt is kept at the edge volume (d*_rupt ~ V*^(1/3))
+        gap_scale = (v_edge / volume) ** _RUPTURE_EXPONENT
+        return gap, v_edge, theta, ratio, status, gap_scale
 
     def predict(self, gap, volume, theta, ratio=1.0, variables=VARIABLES):
         """Interpolated bridge at (d*, V*, theta [deg], ratio): dict of arrays.
@@ -156,9 +209,11 @@ class DoubletSurrogate:
         others NaN, extrapolated).
         """
         self._check_fitted()
-        gap, volume, theta, ratio, status = self._validate(gap, volume, theta, ratio)
+        variables = tuple(check_choice("variables", variables, VARIABLES))
+        gap, volume, theta, ratio, status, scale = self._validate(gap, volume, theta, ratio)
         shape = status.shape
-        g, v, t, r = (np.broadcast_to(a, shape).ravel() for a in (gap, volume, theta, ratio))
+        g, v, t, r, sc = (np.broadcast_to(a, shape).ravel()
+                          for a in (gap * scale, volume, theta, ratio, scale))
         out = {name: np.zeros(g.size) for name in tuple(variables) + ("rupture_gap",)}
         # on a tabulated ratio: that slice alone; between: a cubic spline across the
         # ratio slices (in log ratio), as linear weights on every slice's prediction
@@ -181,6 +236,7 @@ class DoubletSurrogate:
         st[ruptured] = Status.RUPTURED
         for name in variables:
             out[name][ruptured] = 0.0 if name == "force" else np.nan
+        out["rupture_gap"] = out["rupture_gap"] / sc   # at the asked volume when clipped
         res = {name: out[name].reshape(shape) for name in out}
         res["status"] = st.reshape(shape)
         return res
@@ -199,13 +255,22 @@ class DoubletSurrogate:
         """
         from capbridge.dimensionless import to_dimensionless, to_si
 
-        r1, r2 = np.asarray(radius1, float), np.asarray(radius2, float)
-        check_range("radius1", r1, 0.0, np.inf, low_open=True, units=" m")
-        check_range("radius2", r2, 0.0, np.inf, low_open=True, units=" m")
-        check_range("surface_tension", surface_tension, 0.0, np.inf, low_open=True, units=" N/m")
+        slip = "SI units expected: radii in m, surface_tension in N/m (a unit slip?)"
+        r1 = check_range("predict_si radius1", radius1, *SI_RADIUS_RANGE, units=" m", hint=slip)
+        r2 = check_range("predict_si radius2", radius2, *SI_RADIUS_RANGE, units=" m", hint=slip)
+        check_range("predict_si surface_tension", surface_tension, *SI_SURFACE_TENSION_RANGE,
+                    units=" N/m", hint=slip)
+        check_range("predict_si gap", gap, 0.0, np.inf, units=" m",
+                    hint="overlapping grains are not supported")
+        check_range("predict_si volume", volume, 0.0, np.inf, low_open=True, units=" m^3")
         r = np.minimum(r1, r2)
         q = to_dimensionless(r, surface_tension, gap=gap, volume=volume)
-        res = self.predict(q["gap"], q["volume"], theta, np.maximum(r1, r2) / r)
+        try:
+            res = self.predict(q["gap"], q["volume"], theta, np.maximum(r1, r2) / r)
+        except CapbridgeInputError as exc:
+            raise CapbridgeInputError(
+                f"predict_si: {exc} (V* = volume [m^3] / R1^3, d* = gap [m] / R1, ratio = "
+                f"R2/R1, R1 the smaller radius [m]; theta in degrees)") from None
         si = to_si(r, surface_tension, force=res["force"], pressure=res["pressure"],
                    gap=res["rupture_gap"])
         return {"force": si["force"], "pressure": si["pressure"], "beta1": res["beta1"],
