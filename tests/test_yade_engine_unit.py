@@ -184,14 +184,105 @@ def test_liquid_budget_through_ruptures_and_reformations(sur, rule):
             2e-10 / b["initial_count"])
 
 
-def test_mixed_contact_angles_use_the_mean(sur):
-    m = BridgeModel([1e-3, 1e-3], [10.0, 50.0], sur, GAMMA, LiquidRule(bridge_volume_star=0.05))
-    assert 30.0 in m.table.thetas.tolist()
-    pos, u = _two(1e-4)
-    pos, u = _two(0.0)
-    g = m.update(pos)
-    exp = sur.predict(0.0, 0.05, 30.0)["force"] * 2 * np.pi * GAMMA * 1e-3
-    assert g["force"][0] == pytest.approx(float(exp), rel=1e-12)
+@pytest.mark.parametrize("radii,thetas", [((1e-3, 1e-3), (0.0, 60.0)),
+                                          ((1.25e-3, 1e-3), (80.0, 0.0))])
+def test_mixed_contact_angles_are_the_exact_solver(sur, radii, thetas):
+    """Grains of different angles: the bridge is the exact (theta1, theta2) solution
+    (angle of the smaller grain first), within the table's own error (0.35 % max on
+    tabulated ratios for d* <= 0.96 d*_rupt; measured here <= 0.03 %), along a
+    pull-apart, and not the mean angle's (20-60 % off here)."""
+    from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+
+    r = np.asarray(radii)
+    rs, ratio = r.min(), r.max() / r.min()
+    small = 0 if r[0] <= r[1] else 1               # equal radii: the first grain
+    t_small, t_large = thetas[small], thetas[1 - small]
+    vstar = 0.05
+    m = BridgeModel(r, thetas, sur, GAMMA, LiquidRule(bridge_volume_star=vstar),
+                    initial_wet_gap=1e-9 * rs)
+    assert m.table.theta_pairs.shape[0] == 2                 # both orders, built once
+    d_r = float(rupture_distance(vstar, t_small, ratio, t_large)["gap"])
+    assert m.d_rupt_si.size == 0
+    gaps = np.linspace(0.0, 0.96, 13) * d_r
+    got = []
+    for k, g in enumerate(gaps):
+        pos, _ = _two(g * rs, r[0], r[1])
+        got.append(m.update(pos, step=k)["force"][0] / (2 * np.pi * GAMMA * rs))
+    assert m.d_rupt_si[0] / rs == pytest.approx(d_r, rel=1e-3)
+    exact = solve_doublet(gaps, vstar, t_small, ratio, t_large)
+    assert np.all(exact["status"] == Status.CONVERGED)
+    np.testing.assert_allclose(got, exact["force"], rtol=3.5e-3)
+    mean = sur.predict(gaps, vstar, 0.5 * sum(thetas), ratio)["force"]
+    assert np.min(np.abs(mean / exact["force"] - 1)) > 0.1    # the old rule was far off
+
+
+def test_films_feed_later_contacts_without_retrying_refusals(sur):
+    """Conserved liquid starts on the films (uniform water content): a contact made
+    late gets a bridge from the two films; a pair refused for lack of liquid is not
+    tried again until a rupture returns liquid to one of its grains."""
+    r = 1e-3
+    m = BridgeModel(np.full(3, r), 20.0, sur, GAMMA, LiquidRule(total_liquid=3e-11))
+    far = np.array([[0, 0, 0], [3 * r, 0, 0], [6 * r, 0, 0]], float)
+    m.update(far)
+    assert m.n_bridges == 0 and m.films == pytest.approx(np.full(3, 1e-11), rel=1e-12)
+    pos = far.copy()
+    pos[1, 0] = 2 * r                                   # 0-1 touch: V = 0.5 (f0 + f1)
+    m.update(pos, step=1)
+    assert m.n_bridges == 1 and m.vol[0] == pytest.approx(1e-11, rel=1e-12)
+    assert m.films == pytest.approx([0.5e-11, 0.5e-11, 1e-11], rel=1e-12)
+    b = m.budget()
+    assert b["balance_error"] < 1e-14 and b["formed_count"] == 1
+
+
+def test_refused_pairs_are_not_retried(sur):
+    r = 1e-3
+    lo = sur.volume_[0] * r**3
+    # liquid for one bridge at the table's smallest V*, not for a second one
+    m = BridgeModel(np.full(2, r), 0.0, sur, GAMMA, LiquidRule(total_liquid=1.5 * lo))
+    pos, _ = _two(0.0)
+    m.update(pos)
+    assert m.n_bridges == 0                              # 0.5 * 1.5 lo < lo: refused
+    assert m.cand.refused.sum() == 1 and m.budget()["formations_short_of_liquid"] == 0
+    calls = []
+    real = m._form
+    m._form = lambda i, j, step: (calls.append(i.size), real(i, j, step))[1]
+    for k in range(20):
+        m.update(pos, step=k)
+    assert calls == [] and m.n_bridges == 0              # never tried again
+
+
+def test_state_round_trip_gives_the_same_forces(sur):
+    """get_state -> a fresh model -> set_state: the same bridges, films, ledger and
+    forces to round-off, and the run continues identically."""
+    rule = LiquidRule(total_liquid=2e-10)
+    a = BridgeModel(np.full(12, 1e-3), 10.0, sur, GAMMA, rule, initial_wet_gap=0.05e-3)
+    _jiggle_cluster(a, np.random.default_rng(3), 150)
+    st = a.get_state()
+    b = BridgeModel(np.full(12, 1e-3), 10.0, sur, GAMMA, LiquidRule(total_liquid=2e-10),
+                    initial_wet_gap=0.05e-3)
+    b.set_state(st)
+    rng_a, rng_b = np.random.default_rng(9), np.random.default_rng(9)
+    ea = _jiggle_cluster(a, rng_a, 100)
+    eb = _jiggle_cluster(b, rng_b, 100)
+    assert a.n_bridges == b.n_bridges and a.n_bridges > 0
+    np.testing.assert_array_equal(a.vol, b.vol)
+    np.testing.assert_array_equal(a.films, b.films)
+    assert a.budget() == b.budget() and max(eb) < 1e-12
+
+
+def test_dropped_grains_take_their_liquid_and_the_budget_stays_exact(sur):
+    m = BridgeModel(np.full(12, 1e-3), 10.0, sur, GAMMA, LiquidRule(total_liquid=2e-10),
+                    initial_wet_gap=0.05e-3)
+    _jiggle_cluster(m, np.random.default_rng(3), 50)
+    n_b = m.n_bridges
+    gone = np.zeros(12, bool)
+    gone[[3, 7]] = True
+    had = np.isin(m.bi, [3, 7]) | np.isin(m.bj, [3, 7])
+    m.drop_grains(gone)
+    assert m.n == 10 and m.n_bridges == n_b - had.sum()
+    b = m.budget()
+    assert b["removed_volume"] > 0 and b["balance_error"] < 1e-12
+    assert b["active_volume"] + b["film_volume"] + b["removed_volume"] == pytest.approx(2e-10, rel=1e-12)
 
 
 # --------------------------------------------------------------------------------------

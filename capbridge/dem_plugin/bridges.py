@@ -76,7 +76,7 @@ class SceneTable:
     """
 
     def __init__(self, table, thetas, ratios=(1.0,), variables=("force",),
-                 ratio_step=0.01, max_discrete=12, continuous=None):
+                 ratio_step=0.01, max_discrete=12, continuous=None, theta_pairs=()):
         from capbridge.surrogate.doublet import DoubletSurrogate
 
         sur = table if isinstance(table, DoubletSurrogate) else DoubletSurrogate().fit(table)
@@ -88,9 +88,13 @@ class SceneTable:
             if name not in ds:
                 raise ValueError(f"the table has no variable {name!r}")
         self.thetas = distinct_values(thetas)
-        if np.any(self.thetas < sur.theta_[0] - 1e-9) or np.any(self.thetas > sur.theta_[-1] + 1e-9):
-            raise ValueError(f"contact angles {self.thetas.tolist()} deg: the table covers "
-                             f"[{sur.theta_[0]:g}, {sur.theta_[-1]:g}] deg")
+        pairs = np.asarray(theta_pairs, float).reshape(-1, 2)
+        pairs = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > 1e-9]
+        self.theta_pairs = np.unique(pairs, axis=0) if pairs.size else np.empty((0, 2))
+        every = np.concatenate([self.thetas, self.theta_pairs.ravel()])
+        if np.any(every < sur.theta_[0] - 1e-9) or np.any(every > sur.theta_[-1] + 1e-9):
+            raise ValueError(f"contact angles {distinct_values(every).tolist()} deg: the table "
+                             f"covers [{sur.theta_[0]:g}, {sur.theta_[-1]:g}] deg")
         ratios = distinct_values(ratios)
         if ratios.size == 0:
             ratios = np.array([1.0])
@@ -111,11 +115,16 @@ class SceneTable:
         self.vstar_range = (float(sur.volume_[0]), float(sur.volume_[-1]))
         self._check_status(ds)
         self.grids = {}
-        shape = (self.thetas.size, self.ratio_nodes.size, self.v_axis.n, self.s_axis.n)
+        # slices: one per equal angle (from the table), then one per mixed pair (exact)
+        n_sl = self.thetas.size + self.theta_pairs.shape[0]
+        shape = (n_sl, self.ratio_nodes.size, self.v_axis.n, self.s_axis.n)
+        mixed = self._build_mixed(ds)
         for name in self.variables:
-            self.grids[name] = np.ascontiguousarray(self._build(ds[name].values).reshape(shape))
-        self.rupture = np.ascontiguousarray(
-            self._build(ds["rupture_gap"].values).reshape(shape[:3]))
+            parts = ([self._build(ds[name].values)] if self.thetas.size else []) + mixed[name]
+            self.grids[name] = np.ascontiguousarray(np.concatenate(parts).reshape(shape))
+        parts = (([self._build(ds["rupture_gap"].values)] if self.thetas.size else [])
+                 + mixed["rupture_gap"])
+        self.rupture = np.ascontiguousarray(np.concatenate(parts).reshape(shape[:3]))
         self.flat = {name: g.ravel() for name, g in self.grids.items()}
 
     # -------------------------------------------------------------------------- build
@@ -153,7 +162,62 @@ class SceneTable:
             v = _refine_axis(v, 3, sur.s_, self.s_axis.nodes)
         return v
 
+    def _coarse_ratios_for_nodes(self):
+        """The table's coarse ratios a mixed slice is solved on: the nodes themselves
+        when they are all tabulated ratios, else those bracketing the nodes plus one
+        more on each side (so that the ratio spline is the table's cubic)."""
+        rc = self.surrogate.ratios_
+        if np.all(np.isclose(self.ratio_nodes[:, None], rc[None, :], rtol=1e-12, atol=0).any(axis=1)):
+            return self.ratio_nodes.copy()
+        lo = max(int(np.searchsorted(rc, self.ratio_nodes[0], side="right")) - 2, 0)
+        hi = min(int(np.searchsorted(rc, self.ratio_nodes[-1], side="left")) + 2, rc.size)
+        return rc[lo:hi]
+
+    def _build_mixed(self, ds):
+        """Slices of the mixed pairs: exact coarse solutions
+        (:func:`~capbridge.dem_plugin.mixed_angles.exact_coarse`) refined like the
+        table's.  Returns name -> list of (1, node, vfine[, sfine]) arrays."""
+        from capbridge.dem_plugin.mixed_angles import exact_coarse
+        from capbridge.surrogate.doublet import _refine_axis
+
+        sur = self.surrogate
+        out = {name: [] for name in self.variables + ("rupture_gap",)}
+        if not self.theta_pairs.size:
+            return out
+        rc = self._coarse_ratios_for_nodes()
+        for t1, t2 in self.theta_pairs:
+            ex = exact_coarse(t1, t2, rc, sur.volume_, sur.s_, self.variables)
+            for name, v in ex.items():
+                if rc.size > 1:
+                    v = _refine_axis(v, 0, np.log(rc), np.log(self.ratio_nodes))
+                v = _refine_axis(v, 1, np.log(sur.volume_), self.v_axis.nodes)
+                if v.ndim == 3:
+                    v = _refine_axis(v, 2, sur.s_, self.s_axis.nodes)
+                out[name].append(v[None])
+        return out
+
     # ------------------------------------------------------------------------- lookup
+    def slice_index(self, theta1, theta2):
+        """Slice of each bridge with angle ``theta1`` on its smaller grain and
+        ``theta2`` on its larger one: the equal-angle slice when they agree, else the
+        exact mixed slice (which must have been asked for in ``theta_pairs``)."""
+        t1 = np.atleast_1d(np.asarray(theta1, float))
+        t2 = np.broadcast_to(np.asarray(theta2, float), t1.shape)
+        same = np.abs(t1 - t2) <= 1e-9
+        out = np.empty(t1.shape, np.intp)
+        if same.any():
+            out[same] = self.theta_index(t1[same])
+        if (~same).any():
+            p = self.theta_pairs
+            hit = (np.abs(p[None, :, 0] - t1[~same, None]) <= 1e-9) & \
+                  (np.abs(p[None, :, 1] - t2[~same, None]) <= 1e-9)
+            if not hit.any(axis=1).all():
+                k = np.flatnonzero(~hit.any(axis=1))[0]
+                raise ValueError(f"contact-angle pair ({t1[~same][k]:g}, {t2[~same][k]:g}) "
+                                 "deg is not in this SceneTable")
+            out[~same] = self.thetas.size + hit.argmax(axis=1)
+        return out
+
     def theta_index(self, theta):
         """Index of each contact angle in :attr:`thetas` (must be one of them)."""
         theta = np.atleast_1d(np.asarray(theta, float))
@@ -260,11 +324,14 @@ class SceneTable:
             val = val + (val2 - val) * const["fr"]
         return val
 
-    def predict(self, gap_star, vstar, theta, ratio, variables=("force",)):
+    def predict(self, gap_star, vstar, theta, ratio, variables=("force",), theta2=None):
         """Convenience: values at arbitrary points (arrays broadcast), force 0 and the
-        others NaN beyond rupture; for checks against the surrogate."""
+        others NaN beyond rupture; for checks against the surrogate and the exact
+        solver (``theta`` on the smaller grain, ``theta2`` on the larger, default
+        ``theta``)."""
         g, v, t, r = np.broadcast_arrays(*(np.asarray(a, float) for a in (gap_star, vstar, theta, ratio)))
-        const = self.bridge_constants(self.theta_index(t.ravel()), r.ravel(), v.ravel())
+        t2 = t if theta2 is None else np.broadcast_to(np.asarray(theta2, float), t.shape)
+        const = self.bridge_constants(self.slice_index(t.ravel(), t2.ravel()), r.ravel(), v.ravel())
         gs = g.ravel()
         sc = self.s_coordinate(gs, const["d_rupt"])
         out = {"rupture_gap": const["d_rupt"].reshape(g.shape)}
@@ -347,6 +414,8 @@ class _Candidates:
         self.i = self.j = np.empty(0, np.intp)
         self.ref = None
         self.has_bridge = np.empty(0, bool)
+        self.refused = np.empty(0, bool)   # touching, refused for lack of liquid
+        self.keys = np.empty(0, np.int64)
         self.rebuilds = 0
 
     def needs_rebuild(self, pos):
@@ -355,7 +424,11 @@ class _Candidates:
         d2 = np.einsum("ij,ij->i", pos - self.ref, pos - self.ref)
         return float(d2.max(initial=0.0)) > (0.5 * self.skin) ** 2
 
-    def rebuild(self, pos, bridge_keys, n):
+    def rebuild(self, pos, bridge_keys, n, refused_keys=None):
+        """New list around ``pos``; the pairs of ``refused_keys`` (default: those
+        refused in the old list) stay refused."""
+        if refused_keys is None:
+            refused_keys = self.keys[self.refused] if self.refused.size else np.empty(0, np.int64)
         from scipy.spatial import cKDTree
 
         r = self.radii
@@ -374,6 +447,7 @@ class _Candidates:
         self.reach2 = (r[i] + r[j] + self.reach) ** 2
         self.keys = i.astype(np.int64) * n + j
         self.has_bridge = np.isin(self.keys, bridge_keys)
+        self.refused = np.isin(self.keys, refused_keys)
         self.ref = pos.copy()
         self.rebuilds += 1
 
@@ -395,7 +469,8 @@ class BridgeModel:
     ----------
     radii : (n,) sphere radii [m].
     theta : (n,) contact angle of each grain [deg]; a bridge between grains of different
-        angles uses their mean (the table holds bridges with one angle on both grains).
+        angles uses the exact slice of that pair of angles (computed at set-up by
+        :mod:`capbridge.dem_plugin.mixed_angles`, angle of the smaller grain first).
     table : path / Dataset / DoubletSurrogate / :class:`SceneTable` built for the
         scene (pair angles and ratios), see :meth:`scene_table`.
     gamma : surface tension [N/m].
@@ -427,16 +502,17 @@ class BridgeModel:
         # grain angle classes and the pair angle of each combination
         self.theta_classes, self.grain_class = np.unique(self.theta, return_inverse=True)
         tc = self.theta_classes
-        self.pair_theta = 0.5 * (tc[:, None] + tc[None, :])
+        # (angle on the smaller grain, angle on the larger) of every pair of classes
+        t_small, t_large = np.meshgrid(tc, tc, indexing="ij")
         if isinstance(table, SceneTable):
             self.table = table
         else:
             variables = ("force", "beta1", "beta2") if with_beta else ("force",)
             ratios, continuous = self.pair_ratios()
-            self.table = SceneTable(table, self.pair_theta.ravel(), ratios,
-                                    variables=variables, ratio_step=ratio_step,
-                                    continuous=continuous)
-        self.pair_theta_idx = self.table.theta_index(self.pair_theta.ravel()).reshape(tc.size, tc.size)
+            self.table = SceneTable(table, tc, ratios, variables=variables,
+                                    ratio_step=ratio_step, continuous=continuous,
+                                    theta_pairs=np.column_stack([t_small.ravel(), t_large.ravel()]))
+        self.pair_slice = self.table.slice_index(t_small.ravel(), t_large.ravel()).reshape(tc.size, tc.size)
         self.with_beta = with_beta and "beta1" in self.table.grids
         if self.table.s_axis.lo != 0.0:
             raise ValueError("the table's s axis must start at 0 (s = sqrt(1 - d/d_rupt))")
@@ -447,9 +523,11 @@ class BridgeModel:
         self.ledger = {"rule": self.liquid.kind, "initial_volume": 0.0, "initial_count": 0,
                        "formed_count": 0, "formed_volume": 0.0, "ruptured_count": 0,
                        "ruptured_volume": 0.0, "formations_short_of_liquid": 0,
-                       "total_liquid": self.liquid.total_liquid}
+                       "total_liquid": self.liquid.total_liquid, "removed_grains": 0,
+                       "removed_volume": 0.0}
         self.fixed_volume = self.liquid.bridge_volume
         self.initialised = False
+        self._pending_refused = None
 
     # ------------------------------------------------------------------------ set-up
     def pair_ratios(self, max_radii=4):
@@ -521,7 +599,10 @@ class BridgeModel:
         rs = np.minimum(self.radii[i], self.radii[j])
         ratio = np.maximum(self.radii[i], self.radii[j]) / rs
         vstar = vol / rs**3
-        ti = self.pair_theta_idx[self.grain_class[i], self.grain_class[j]]
+        # the smaller grain (i when equal, as in filling_angles) carries theta1
+        i_small = self.radii[i] <= self.radii[j]
+        small, large = np.where(i_small, i, j), np.where(i_small, j, i)
+        ti = self.pair_slice[self.grain_class[small], self.grain_class[large]]
         c = self.table.bridge_constants(ti, ratio, vstar)
         keys = i.astype(np.int64) * self.n + j
         cidx = self.cand.index_of(keys)
@@ -578,38 +659,45 @@ class BridgeModel:
         return kept, kept < lo * rs**3 * (1 + 1e-12)
 
     def _form(self, i, j, step):
-        """New bridges on candidate pairs i, j (arrays) under the liquid rule."""
+        """New bridges on touching pairs i, j (arrays) under the liquid rule.
+
+        Conserved liquid (films): a grain that forms k bridges in this update gives each
+        of them ``film_fraction / k`` of its film, so that the order of the pairs does
+        not matter and a grain never gives more than ``film_fraction`` of its film in
+        one update; the bridge volume is capped at the table's largest V* (the rest
+        stays on the films, in proportion to what each grain offered); a pair whose
+        bridge would be below the table's smallest V* is refused and its liquid stays
+        on the films.  Returns (number formed, refused mask over the pairs)."""
+        refused = np.zeros(i.size, bool)
         if i.size == 0:
-            return 0
+            return 0, refused
         if self.liquid.kind == "fixed":
             vol = self._volume_for(i, j)
             self._add(i, j, vol, step)
             self.ledger["formed_count"] += int(i.size)
             self.ledger["formed_volume"] += float(vol.sum())
-            return int(i.size)
-        # conserved: take film_fraction of each grain's film, one bridge after the other
+            return int(i.size), refused
         f = self.liquid.film_fraction
         lo, hi = self.table.vstar_range
-        ni, nj, nv = [], [], []
-        for a, b in zip(i.tolist(), j.tolist()):
-            fa, fb = self.films[a], self.films[b]
-            want = f * (fa + fb)
-            rs = min(self.radii[a], self.radii[b])
-            v = min(want, hi * rs**3)
-            if v < lo * rs**3 * (1 + 1e-12) or v <= 0:
-                self.ledger["formations_short_of_liquid"] += 1
-                continue
-            ta = v * fa / (fa + fb)
-            self.films[a] -= ta
-            self.films[b] -= v - ta
-            ni.append(a); nj.append(b); nv.append(v)
-        if ni:
-            nv = np.array(nv)
-            self._add(np.array(ni), np.array(nj), nv, step)
-            self.ledger["formed_count"] += len(ni)
-            self.ledger["formed_volume"] += float(nv.sum())
-        np.maximum(self.films, 0.0, out=self.films)   # round-off of the subtractions
-        return len(ni)
+        k = np.bincount(i, minlength=self.n) + np.bincount(j, minlength=self.n)
+        offer_i = f * self.films[i] / k[i]
+        offer_j = f * self.films[j] / k[j]
+        want = offer_i + offer_j
+        rs = np.minimum(self.radii[i], self.radii[j])
+        v = np.minimum(want, hi * rs**3)
+        refused = ~((v > 0) & (v >= lo * rs**3 * (1 + 1e-12)))
+        ok = ~refused
+        if ok.any():
+            i, j, v, offer_i, want = i[ok], j[ok], v[ok], offer_i[ok], want[ok]
+            take_i = offer_i * (v / want)
+            self.films -= (np.bincount(i, take_i, minlength=self.n)
+                           + np.bincount(j, v - take_i, minlength=self.n))
+            np.maximum(self.films, 0.0, out=self.films)   # round-off of the subtractions
+            self._add(i, j, v, step)
+            self.ledger["formed_count"] += int(i.size)
+            self.ledger["formed_volume"] += float(v.sum())
+        self.ledger["formations_short_of_liquid"] += int(refused.sum())
+        return int(ok.sum()), refused
 
     def initialise(self, pos, step=0, pairs=None):
         """First bridges: every pair with gap <= ``initial_wet_gap`` (or exactly the
@@ -618,7 +706,7 @@ class BridgeModel:
         pos = np.asarray(pos, float)
         self._empty()
         self.films[:] = 0.0
-        self.cand.rebuild(pos, self.keys, self.n)
+        self.cand.rebuild(pos, self.keys, self.n, np.empty(0, np.int64))
         if pairs is not None:
             pairs = np.asarray(pairs, np.intp).reshape(-1, 2)
             i, j = pairs[:, 0], pairs[:, 1]
@@ -629,31 +717,30 @@ class BridgeModel:
             wet = gap <= self.initial_wet_gap
             i, j = self.cand.i[wet], self.cand.j[wet]
         L = self.liquid
-        if L.total_liquid is not None:
-            W = float(L.total_liquid)
+        if L.total_liquid is not None and L.conserve:
+            # the liquid starts on the grains, as a uniform water content (films in
+            # proportion to the grain volume), and the initial bridges take it from
+            # there like any later one
+            self.films[:] = float(L.total_liquid) * self.radii**3 / float((self.radii**3).sum())
+            _, refused = self._form(i, j, step)
+            self.ledger["formed_count"] = 0
+            self.ledger["formed_volume"] = 0.0
+            self._mark_refused(i[refused], j[refused])
+        elif L.total_liquid is not None:
             if i.size == 0:
-                if not L.conserve:
-                    raise ValueError("no initial bridges to share the liquid among: give a "
-                                     "bridge_volume, wet a larger gap, or conserve=True")
-                self.films[:] = W * self.radii**2 / float((self.radii**2).sum())
-            else:
-                share = np.full(i.size, W / i.size)
-                if L.conserve:
-                    kept, small = self._clip_volume(i, j, share)
-                    self._film_share(i, j, share - np.where(small, 0.0, kept))
-                    ok = ~small
-                    self._add(i[ok], j[ok], kept[ok], step)
-                else:
-                    v = W / i.size
-                    self.fixed_volume = v
-                    self.liquid = dataclasses.replace(L, total_liquid=None, bridge_volume=v,
-                                                      conserve=False)
-                    self._check_fixed_volume()
-                    self._add(i, j, np.full(i.size, v), step)
+                raise ValueError("no initial bridges to share the liquid among: give a "
+                                 "bridge_volume, wet a larger gap, or conserve=True")
+            v = float(L.total_liquid) / i.size
+            self.fixed_volume = v
+            self.liquid = dataclasses.replace(L, total_liquid=None, bridge_volume=v,
+                                              conserve=False)
+            self._check_fixed_volume()
+            self._add(i, j, np.full(i.size, v), step)
         else:
             self._add(i, j, self._volume_for(i, j), step)
         self.ledger["initial_count"] = self.n_bridges
         self.ledger["initial_volume"] = float(self.vol.sum())
+        self.ledger["formations_short_of_liquid"] = 0
         self.ledger["bridge_volume"] = self.fixed_volume
         self.initialised = True
 
@@ -674,7 +761,8 @@ class BridgeModel:
         if not self.initialised:
             self.initialise(pos, step, pairs=initial_pairs)
         if self.cand.needs_rebuild(pos):
-            self.cand.rebuild(pos, self.keys, self.n)
+            self.cand.rebuild(pos, self.keys, self.n, self._pending_refused)
+            self._pending_refused = None
             self.cidx = self.cand.index_of(self.keys)
         self._touched = np.empty(0, np.intp)
         # ruptures
@@ -690,6 +778,7 @@ class BridgeModel:
             self.ledger["ruptured_volume"] += float(v.sum())
             if self.liquid.kind == "conserved":
                 self._film_share(self.bi[broken], self.bj[broken], v)
+                self._release_refused(np.concatenate([self.bi[broken], self.bj[broken]]))
             self._remove(broken)
             keep = ~broken
             d, dist, gap = d[keep], dist[keep], gap[keep]
@@ -700,9 +789,12 @@ class BridgeModel:
             dc -= pos[self.cand.i]
             new = np.einsum("ij,ij->i", dc, dc) <= self.cand.reach2
             new &= ~self.cand.has_bridge
+            new &= ~self.cand.refused            # no retry until a film has grown
             if new.any():
                 n0 = self.n_bridges
-                n_form = self._form(self.cand.i[new], self.cand.j[new], step)
+                idx = np.flatnonzero(new)
+                n_form, refused = self._form(self.cand.i[idx], self.cand.j[idx], step)
+                self.cand.refused[idx[refused]] = True
                 if n_form:
                     nd = pos[self.bj[n0:]] - pos[self.bi[n0:]]
                     nds = np.sqrt(np.einsum("ij,ij->i", nd, nd))
@@ -772,12 +864,114 @@ class BridgeModel:
         i_small = self.radii[self.bi] <= self.radii[self.bj]
         return np.where(i_small, b1, b2), np.where(i_small, b2, b1)
 
+    # ---------------------------------------------------------------- liquid on films
+    def _mark_refused(self, i, j):
+        """Pairs (i, j) refused for lack of liquid: not tried again until a film of
+        theirs grows (:meth:`_release_refused`)."""
+        if i.size == 0:
+            return
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        c = self.cand.index_of(lo.astype(np.int64) * self.n + hi)
+        self.cand.refused[c[c >= 0]] = True
+
+    def _release_refused(self, grains):
+        """Grains whose film grew (a rupture gave them liquid): their refused pairs may
+        form a bridge again."""
+        if self.cand.refused.any():
+            grew = np.zeros(self.n, bool)
+            grew[grains] = True
+            self.cand.refused &= ~(grew[self.cand.i] | grew[self.cand.j])
+
+    def drop_grains(self, gone):
+        """Remove grains (erased from the scene): their bridges rupture by the rule
+        (conserved: the bridge's liquid is split onto the two grains' films, in
+        proportion to R^2), then the grains leave with their films; the liquid that
+        leaves is counted in the ledger (``removed_volume``), so the budget stays
+        exact.  Returns the new index of every old grain (-1: removed)."""
+        gone = np.asarray(gone, bool)
+        if not gone.any():
+            return np.arange(self.n)
+        hit = gone[self.bi] | gone[self.bj]
+        if hit.any():
+            v = self.vol[hit]
+            self.ledger["ruptured_count"] += int(hit.sum())
+            self.ledger["ruptured_volume"] += float(v.sum())
+            if self.liquid.kind == "conserved":
+                self._film_share(self.bi[hit], self.bj[hit], v)
+            self._remove(hit)
+        if self.liquid.kind == "conserved":
+            self.ledger["removed_volume"] += float(self.films[gone].sum())
+        self.ledger["removed_grains"] += int(gone.sum())
+        keep = ~gone
+        new_index = np.where(keep, np.cumsum(keep) - 1, -1)
+        self.radii = np.ascontiguousarray(self.radii[keep])
+        self.theta = self.theta[keep]
+        self.grain_class = self.grain_class[keep]
+        self.films = self.films[keep]
+        self.n = int(self.radii.size)
+        self.bi, self.bj = new_index[self.bi], new_index[self.bj]
+        self.keys = self.bi.astype(np.int64) * self.n + self.bj
+        self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
+        self.cidx = np.full(self.bi.size, -1, np.intp)
+        return new_index
+
+    # ----------------------------------------------------------------- save / restore
+    def get_state(self):
+        """Everything needed to continue exactly (a dict of arrays and JSON values):
+        the bridges (grains, volume, birth step, force last handed out), the films,
+        the refused pairs, the ledger and the liquid rule.  Force profiles and rupture
+        gaps are not stored: :meth:`set_state` recomputes them from the table, which
+        gives the same numbers."""
+        return {"n": self.n, "radii": self.radii.copy(), "theta": self.theta.copy(),
+                "bi": self.bi.copy(), "bj": self.bj.copy(), "vol": self.vol.copy(),
+                "born": self.born.copy(), "held": self.held.copy(),
+                "films": self.films.copy(),
+                "refused_keys": self.cand.keys[self.cand.refused].copy(),
+                "ledger": dict(self.ledger), "fixed_volume": self.fixed_volume,
+                "initialised": self.initialised, "liquid": dataclasses.asdict(self.liquid)}
+
+    def set_state(self, st):
+        """Continue from :meth:`get_state`'s dict (same grains, same table)."""
+        radii = np.asarray(st["radii"], float)
+        if radii.shape != self.radii.shape or not np.array_equal(radii, self.radii) \
+                or not np.array_equal(np.asarray(st["theta"], float), self.theta):
+            raise ValueError(f"saved bridge state is for {radii.size} grains with other radii "
+                             f"or angles than the {self.n} grains of this model")
+        self.liquid = LiquidRule(**st["liquid"])
+        self.fixed_volume = st["fixed_volume"]
+        self._empty()
+        self.films = np.asarray(st["films"], float).copy()
+        bi, bj = np.asarray(st["bi"], np.intp), np.asarray(st["bj"], np.intp)
+        self._add(bi, bj, np.asarray(st["vol"], float), 0)
+        self.born = np.asarray(st["born"], np.intp).copy()
+        self.held = np.asarray(st["held"], float).reshape(-1, 3).copy()
+        self.ledger = dict(st["ledger"])
+        self.initialised = bool(st["initialised"])
+        self.cand.ref = None                       # rebuilt at the next update
+        self._pending_refused = np.asarray(st["refused_keys"], np.int64)
+
     # ------------------------------------------------------------------------ budget
+    def liquid_report(self, pore_volume=None):
+        """Where the liquid is now: bridges, films, total [m^3] and, with the pore
+        volume [m^3], the degree of saturation S_r = liquid / pores (total and in
+        bridges)."""
+        b = float(self.vol.sum())
+        f = float(self.films.sum())
+        out = {"bridges": b, "films": f, "total": b + f, "n_bridges": self.n_bridges,
+               "wet_grains": int(np.count_nonzero(np.bincount(
+                   np.concatenate([self.bi, self.bj]), minlength=self.n))),
+               "saturation": None, "saturation_bridges": None}
+        if pore_volume:
+            out["saturation"] = (b + f) / pore_volume
+            out["saturation_bridges"] = b / pore_volume
+        return out
+
     def budget(self):
         """The liquid ledger.  ``balance`` is what the rule says must hold, exactly:
 
         fixed:     active = initial + formed - ruptured
-        conserved: active + films = total_liquid
+        conserved: active + films = total_liquid - removed (liquid that left with
+                   erased grains)
         """
         L = dict(self.ledger)
         active = float(self.vol.sum())
@@ -785,7 +979,7 @@ class BridgeModel:
         L["active_volume"] = active
         L["film_volume"] = float(self.films.sum())
         if self.liquid.kind == "conserved":
-            expected = float(self.liquid.total_liquid)
+            expected = float(self.liquid.total_liquid) - L["removed_volume"]
             got = active + L["film_volume"]
         else:
             expected = L["initial_volume"] + L["formed_volume"] - L["ruptured_volume"]
