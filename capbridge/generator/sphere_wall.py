@@ -240,6 +240,29 @@ def _finish(out, shape):
     return yl._finish(out, shape)
 
 
+def _predict_correct(prob, idx, out):
+    """Near rupture: a direct solve at half the gap, then one predictor-corrector step
+    along the fixed-volume family to the target (the doublet solver's path, with the
+    wall's starting point).  The corrector must end stable and near the predictor (same
+    branch).  Stores the accepted points in ``out``; returns their mask."""
+    pts, settings = prob.pts, prob.settings
+    half = pts.take(idx)
+    half.gap = 0.5 * half.gap
+    xh, okh, ith, sth, rate = yl._Problem(half, False, settings, False).solve_with_rate(
+        _wall_guess(half), max_iter=yl._DIRECT_ITER)
+    go = np.flatnonzero(okh & sth & np.isfinite(rate).all(axis=0))
+    acc = np.zeros(idx.size, bool)
+    if go.size:
+        xp = xh[:, go] + half.gap[go] * rate[:, go]
+        xn, okn, itn, stn = prob.solve(xp, idx[go], max_iter=yl._DIRECT_ITER)
+        close = np.max(np.abs(xn - xp) / prob.scale_of(xh[:, go]), axis=0) < 0.5
+        ok = okn & stn & close
+        yl._store(out, idx[go[ok]], xn[:, ok], pts.take(idx[go[ok]]), settings.nodes)
+        out["iterations"][idx[go[ok]]] = ith[go[ok]] + itn[ok]
+        acc[go[ok]] = True
+    return acc
+
+
 def solve_sphere_wall(gap, volume, theta_s, theta_w=None, settings=None):
     """Liquid bridge of given volume between a sphere and a flat wall, on the stable branch.
 
@@ -267,9 +290,11 @@ def solve_sphere_wall(gap, volume, theta_s, theta_w=None, settings=None):
 
     Notes
     -----
-    Far from rupture (d* below a quarter of Lian's (1 + theta/2) V*^(1/3)) one Newton
-    solve from the circular meridian; otherwise the fixed-volume family is walked from
-    contact (the doublet solver's safe path), so no point lands on an unstable branch.
+    As the doublet solver: far from rupture (d* below a quarter of Lian's
+    (1 + theta/2) V*^(1/3)) one Newton solve from the circular meridian; nearer, a solve
+    at half the gap and a predictor-corrector step along the family; any point that
+    does not end stable and on the same branch is solved by walking the fixed-volume
+    family from contact (the safe path), so no point lands on an unstable branch.
 
     Examples
     --------
@@ -296,6 +321,9 @@ def solve_sphere_wall(gap, volume, theta_s, theta_w=None, settings=None):
         yl._store(out, far[good], x[:, good], pts.take(far[good]), settings.nodes)
         out["iterations"][far[good]] = it[good]
         done[far[good]] = True
+    near = np.flatnonzero(~done)
+    if near.size:
+        done[near] = _predict_correct(prob, near, out)
     rest = np.flatnonzero(~done)
     if rest.size:
         sub = pts.take(rest)
