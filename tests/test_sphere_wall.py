@@ -29,6 +29,41 @@ def cases():
     return dict(d=d, v=v, ts=ts, tw=tw, r=solve_sphere_wall(d, v, ts, tw))
 
 
+# ------------------------------------------------------------------ the profile itself
+
+
+def test_wall_profile_matches_ode_integration():
+    """The roulette ending on the plane (the doublet's profile with a second sphere of
+    radius 1e100) against an independent ODE integration of the meridian ending at the
+    plane x = 1 + d* (dx/ds = cos psi, dy/ds = sin psi, dpsi/ds = cos psi / y - P*):
+    gap, volume, wetted radius, Young misfit and energy agree to the integrator's 1e-9."""
+    from scipy.integrate import solve_ivp
+
+    from capbridge.dimensionless import cap_area, cap_volume
+    from capbridge.generator.sphere_wall import wall_shape
+
+    cases = [(-4.0, 0.35, 0.25, 0.3, 0.5), (0.9, 0.3, 0.6, 1.2, 1.0), (2.5, 0.4, 0.9, 0.2, 1.3),
+             (-30.0, 0.12, 0.04, 0.0, 0.0), (-1.0, 0.6, 0.5, 0.5, 0.5 * np.pi)]
+    for h, b1, L, ts, tw in cases:
+        p = wall_shape(h, b1, L, ts, tw)
+
+        def rhs(s, u):
+            x, y, psi, vol, area = u
+            return [np.cos(psi), np.sin(psi), np.cos(psi) / y - 2 * h,
+                    np.pi * y * y * np.cos(psi), 2 * np.pi * y]
+
+        sol = solve_ivp(rhs, (0, L), [np.cos(b1), np.sin(b1), b1 + ts - np.pi / 2, 0.0, 0.0],
+                        rtol=1e-12, atol=1e-13, method="DOP853")
+        x, y, psi, vol, area = sol.y[:, -1]
+        assert float(p["gap"]) == pytest.approx(x - 1.0, abs=1e-9)
+        assert float(p["volume"]) == pytest.approx(vol - cap_volume(1.0, b1), abs=1e-9)
+        assert float(p["wall_radius"]) == pytest.approx(y, abs=1e-9)
+        assert float(p["angle"]) == pytest.approx(
+            np.angle(np.exp(1j * (psi - (np.pi / 2 - tw)))), abs=1e-9)
+        energy = area - np.cos(ts) * cap_area(1.0, b1) - np.cos(tw) * np.pi * y * y
+        assert float(p["energy"]) == pytest.approx(energy, abs=1e-9)
+
+
 # ------------------------------------------------------------------ limits and identities
 
 
@@ -218,3 +253,5 @@ def test_table_slice():
     np.testing.assert_allclose(CubicSpline(s, f, axis=1)(s_mid), exact["force"], rtol=1e-3)
     with pytest.raises(CapbridgeInputError, match="increasing"):
         sphere_wall_table(30.0, 60.0, [0.1, 0.01])
+    with pytest.raises(CapbridgeInputError, match="one .theta_s, theta_w. pair"):
+        sphere_wall_table([0.0, 30.0], 60.0, vols)

@@ -62,8 +62,8 @@ from capbridge.validation import CapbridgeInputError, check_range
 WALL_RADIUS = 1e100
 THETA_WALL_MAX_DEG = 90.0
 
-__all__ = ["WALL_RADIUS", "solve_sphere_wall", "sphere_wall_rupture_distance",
-           "sphere_wall_table", "wall_shape"]
+__all__ = ["WALL_RADIUS", "default_s_axis", "solve_sphere_wall",
+           "sphere_wall_rupture_distance", "sphere_wall_table", "wall_shape"]
 
 OUTPUTS = ("force", "pressure", "beta1", "wall_radius", "neck_radius")
 
@@ -393,6 +393,9 @@ def sphere_wall_table(theta_s, theta_w, volumes, n_s=25):
     scalar coordinates theta_s, theta_w.  Points that did not converge are NaN with
     their status, never a silent number.
     """
+    if np.ndim(theta_s) or np.ndim(theta_w):
+        raise CapbridgeInputError(f"a table slice has one (theta_s, theta_w) pair, got "
+                                  f"theta_s={theta_s!r}, theta_w={theta_w!r}")
     theta_s, theta_w = (float(a) for a in _check_angles(theta_s, theta_w))
     volumes = check_range("volume V*", volumes, 0.0, np.inf, low_open=True).ravel()
     if volumes.size > 1 and np.any(np.diff(volumes) <= 0):
