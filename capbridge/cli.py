@@ -145,7 +145,11 @@ def cmd_generate_doublet(args):
     # before hours of work: can the table be written, and would it replace another grid?
     check_table_target(args.output, {k: list(v) for k, v in grid.as_dict().items()},
                        overwrite=args.overwrite, flag="--overwrite")
-    command = "capbridge " + " ".join(sys.argv[1:]) if args.command is None else args.command
+    import shlex
+
+    words = getattr(args, "argv", sys.argv[1:])
+    command = ("capbridge " + " ".join(shlex.quote(w) for w in words)
+               if args.command is None else args.command)
     ds = build_doublet_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                              scheduler=args.scheduler, progress=not args.no_progress,
                              command=command, worker_timeout=args.worker_timeout)
@@ -474,7 +478,9 @@ def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
+    _configure_logging(debug)
     args = build_parser().parse_args(argv)
+    args.argv = argv
     try:
         return args.func(args)
     except Exception as exc:
@@ -495,6 +501,37 @@ def main(argv=None):
         print("capbridge: interrupted (finished chunks are kept in the checkpoint directory, "
               "if any: rerun to continue)", file=sys.stderr)
         return 130
+
+
+class _LowerLevelFormatter:
+    """``capbridge: warning: ...`` (lower-case level, like the error line)."""
+
+    def __init__(self, fmt):
+        import logging
+
+        self._fmt = logging.Formatter(fmt)
+
+    def format(self, record):
+        import copy
+
+        record = copy.copy(record)
+        record.levelname = record.levelname.lower()
+        return self._fmt.format(record)
+
+
+def _configure_logging(debug):
+    """Warnings of the library as ``capbridge: warning: ...`` lines (tracebacks of failed
+    chunks only with ``--debug``); left alone if the caller configured logging."""
+    import logging
+
+    root, lib = logging.getLogger(), logging.getLogger("capbridge")
+    if root.handlers or lib.handlers:
+        return
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_LowerLevelFormatter("capbridge: %(levelname)s: %(message)s"))
+    lib.addHandler(handler)
+    lib.setLevel(logging.DEBUG if debug else logging.WARNING)
+    lib.propagate = False
 
 
 def _one_line(exc):

@@ -644,7 +644,12 @@ def run_sweep(solve_chunk: Callable[..., Mapping[str, Any]],
     def fail(i, error, tb):
         s, e = bounds[i]
         failures[i] = ChunkFailure(i, s, e, error, tb)
-        log.error("%s: chunk %d (points %d:%d) failed: %s\n%s", desc, i, s, e, error, tb)
+        # one line for the user; the traceback goes to failures.json and the debug log
+        where = f" (traceback in {ckdir / FAILURES_NAME})" if ckdir is not None and tb else ""
+        log.error("%s: chunk %d (points %d:%d) failed: %s%s", desc, i, s, e,
+                  error.splitlines()[0] if error else "?", where)
+        if tb:
+            log.debug("%s: chunk %d traceback:\n%s", desc, i, tb)
 
     bar = tqdm(total=n, initial=sum(bounds[i][1] - bounds[i][0] for i in reused),
                desc=desc, unit="pt", file=sys.stderr, disable=not progress,
