@@ -184,3 +184,32 @@ def triplet_centres(d12, d13, d23):
     x3 = (a**2 + b**2 - c**2) / (2 * a)
     y3 = np.sqrt(max(b**2 - x3**2, 0.0))
     return np.array([[0.0, 0.0, 0.0], [a, 0.0, 0.0], [x3, y3, 0.0]])
+
+
+def canonical_triplet(d12, d13, d23):
+    """Relabel three equal grains so that their gaps are sorted, d12 <= d13 <= d23.
+
+    A triplet of equal spheres and its relabelled copies are one physical state, so
+    tables hold only the canonical order.  Grain 1 of the canonical order is then the
+    grain shared by the two smallest gaps.
+
+    Returns
+    -------
+    gaps : ndarray (3,)
+        The canonical (d12, d13, d23).
+    perm : ndarray of int (3,)
+        ``perm[k]`` is the input grain (0-based) that becomes canonical grain k; the
+        gap between canonical grains a and b is the input gap between grains
+        ``perm[a]`` and ``perm[b]``.
+
+    >>> canonical_triplet(0.2, 0.05, 0.1)
+    (array([0.05, 0.1 , 0.2 ]), array([2, 0, 1]))
+    """
+    gaps = {(0, 1): float(d12), (0, 2): float(d13), (1, 2): float(d23)}
+    # each grain faces one gap; the grain facing the largest gap is shared by the
+    # two smallest gaps (stable sort: ties keep the input order)
+    facing = np.array([gaps[(1, 2)], gaps[(0, 2)], gaps[(0, 1)]])
+    perm = np.argsort(-facing, kind="stable")
+    sorted_gaps = np.array([gaps[tuple(sorted((perm[a], perm[b])))]
+                            for a, b in ((0, 1), (0, 2), (1, 2))])
+    return sorted_gaps, perm

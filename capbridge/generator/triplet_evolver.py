@@ -31,7 +31,7 @@ import shutil
 
 import numpy as np
 
-from capbridge.status import Status
+from capbridge.status import HAS_RESULT, Status
 
 from .triplet import (TripletGeometry, pair_forces, parse_bridges, uncoalesced_state,
                       _fractions, _thetas)
@@ -254,9 +254,12 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
            "energy": float(res.energy), "energy_extrapolated": float(res.energy_extrapolated),
            "energy_error": float(res.error_estimate.get("energy", np.nan)),
            "force_error_rel": float(res.error_estimate.get("force_rel", np.nan)),
+           "direct_vs_vw": float(res.error_estimate.get("direct_vs_vw", np.nan)),
+           "pressure": (float(res.pressure[0]) if topology == "coalesced"
+                        and res.pressure is not None else np.nan),
            "cap_gaps": None if gaps is None else {f"grain {g + 1}": v for g, v in gaps.items()},
            "lower_meniscus_z": zlow, "section": section, "attempts": attempts}
-    if res.status == Status.CONVERGED and res.forces is not None:
+    if res.status in HAS_RESULT and res.forces is not None:
         F = np.asarray(res.forces, float)
         f, resid = pair_forces(geom.centres, F)
         out.update({"forces": F.tolist(),
