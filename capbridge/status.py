@@ -18,10 +18,16 @@ class Status(enum.IntEnum):
     #: error above the tolerance (``ftol``/``etol``): numbers are there, the stated
     #: precision is not reached (the estimate is in the result)
     ABOVE_TOLERANCE = 7
+    #: no equilibrium of this liquid body exists here (e.g. a coalesced body below the
+    #: smallest volume at which it holds together): the separate bridges apply
+    NO_EQUILIBRIUM = 8
+    #: answered by a documented approximation outside the table's assumptions (e.g. a
+    #: triplet of unequal grains from the equal-sphere table); its error is documented
+    APPROXIMATE = 9
 
 
 #: statuses whose numbers are a result (the others carry none, or a force of 0)
-HAS_RESULT = (Status.CONVERGED, Status.ABOVE_TOLERANCE)
+HAS_RESULT = (Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.APPROXIMATE)
 
 
 def cf_flag_attributes():
