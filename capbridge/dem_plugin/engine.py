@@ -41,6 +41,27 @@ process, interpolates in tetrahedra (0.5-3 % between suctions) and its stale
 tetrahedron cache (``yade_export.FORMAT_NOTES``) gives wrong forces, or, seen on
 capbridge's files, a lookup that does not return.
 
+Forces are added, never set: with the defaults (refresh every step,
+``force_tolerance=0``) the engine calls ``O.forces.addF`` once per wet grain and step,
+on top of whatever the contact laws, the user's ``addF`` and the user's permanent
+forces put there.  With ``refresh_every > 1`` or ``force_tolerance > 0`` it holds its
+forces as permanent forces, *adding* its change to the permanent force present
+(``permF - ours_before + ours_now``), so a permanent force the user set before is kept.
+
+Restarts: the engine's state (bridges, volumes, films, ledger, held forces, and any part
+registered with :meth:`CapbridgeEngine.register_state`) is written into the scene's
+``O.tags`` whenever the scene is saved (``O.save``, ``O.saveTmp``: capbridge wraps them
+when the first engine is made) and read back at the first step after ``O.load`` /
+``O.loadTmp``, in this process or in a new one (the PyRunner re-creates the engine
+from the saved parameters if no engine of its label exists).  YADE drops every
+permanent force on load; the engine puts its own back (the user's are the user's).
+
+Misuse is an error, not a silent zero: the PyRunner outside ForceResetter ...
+NewtonIntegrator, two PyRunners of one label, impossible liquid amounts, spheres added
+while running.  Erased spheres: their bridges rupture (liquid onto the surviving grain's
+film under the conserving rule) and the grain leaves with its film; the ledger counts
+that liquid (``removed_volume``).
+
 Coalescence: every ``coalescence_every`` steps, if some grain holds two bridges, the
 geometric criterion (:mod:`capbridge.dem_plugin.coalescence_detect`) is applied; merged
 bridges are reported in :meth:`CapbridgeEngine.state` and in a log line whenever their
@@ -49,54 +70,80 @@ yet).
 """
 from __future__ import annotations
 
+import contextlib
+import json
 import logging
 import math
 import time
+import uuid
 from contextlib import chdir  # YADE reads its capillary files from the working directory
 from pathlib import Path
 
 import numpy as np
 
+from capbridge.dem_plugin import state_io
 from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem_plugin.coalescence_detect import find_coalescence
+from capbridge.validation import CapbridgeInputError
 
-__all__ = ["CapbridgeEngine", "suction_law2", "get_engine", "ENGINE_PARAMETERS"]
+__all__ = ["CapbridgeEngine", "suction_law2", "get_engine", "ENGINE_PARAMETERS",
+           "CapbridgeStateError", "install_save_hooks", "MAX_VOID_RATIO"]
 
 log = logging.getLogger("capbridge.yade")
 
 #: Engines by label, for the PyRunner commands.
 _REGISTRY: dict = {}
 
+#: Largest liquid volume per grain volume a water content may give: void ratio 1
+#: (porosity 0.5), looser than any random packing of spheres (random loose packing:
+#: porosity ~0.44), so more liquid than this cannot be held by the pores of any packing.
+MAX_VOID_RATIO = 1.0
+
+#: prefix of the engine's entries in ``O.tags``
+_TAG = "capbridge"
+
+
+class CapbridgeStateError(RuntimeError):
+    """The scene and the engine's state do not belong together (e.g. a scene loaded
+    without capbridge's saved state)."""
+
 #: name -> (default, meaning); the table of docs/yade_plugin.md is made from this.
 ENGINE_PARAMETERS = {
     "theta": (0.0, "contact angle [deg]: one number, or a dict {material label or id: "
-                   "angle} (a pair of different angles uses their mean)"),
+                   "angle} (a pair of different angles gets the exact bridge of that pair, "
+                   "solved at scene start)"),
     "gamma": (0.073, "liquid-gas surface tension [N/m]"),
     "bridge_volume": (None, "fixed rule: every bridge that forms gets this volume [m^3]"),
     "bridge_volume_star": (None, "fixed rule: every bridge gets V = V* r^3, r its smaller "
                                  "radius"),
-    "liquid_volume": (None, "total liquid [m^3] (shared among the initial bridges)"),
-    "water_content": (None, "total liquid as mass of liquid / mass of grains"),
-    "saturation": (None, "total liquid as degree of saturation S_r = V_liquid / V_pores "
-                         "(needs sample_volume)"),
-    "sample_volume": (None, "volume of the sample [m^3], for saturation"),
+    "liquid_volume": (None, "total liquid [m^3], on the grains' films at the start "
+                            "(in proportion to grain volume)"),
+    "water_content": (None, "total liquid as mass of liquid / mass of grains, a fraction "
+                            "(0.01 = 1 %; at most the void ratio 1 the pores of any sphere "
+                            "packing hold)"),
+    "saturation": (None, "total liquid as degree of saturation S_r = V_liquid / V_pores, "
+                         "in (0, 1] (needs sample_volume)"),
+    "sample_volume": (None, "volume of the sample [m^3], for saturation (and to report "
+                            "the current saturation)"),
     "liquid_density": (1000.0, "liquid density [kg/m^3], for water_content"),
     "conserve_liquid": (None, "True: liquid conserved (ruptured bridges return it to their "
                               "grains, new bridges take it from them); False: every bridge "
                               "gets the same fixed volume; default True for a total liquid, "
                               "False for a bridge volume"),
-    "film_fraction": (0.5, "conserving rule: fraction of each grain's liquid a new bridge "
-                           "takes"),
+    "film_fraction": (0.5, "conserving rule: fraction of each grain's film a new bridge "
+                           "takes (split among the bridges a grain forms in one step)"),
     "formation_gap": (0.0, "a bridge forms when the gap between surfaces is <= this [m]"),
     "initial_wet_gap": (None, "at the first step, pairs with gap <= this [m] get a bridge "
                               "(default formation_gap)"),
     "initial_pairs": (None, "at the first step, exactly these pairs of body ids get a bridge "
                             "(instead of initial_wet_gap)"),
     "refresh_every": (1, "update bridges and forces every N steps (forces held constant, "
-                         "as permanent forces, in between)"),
-    "force_tolerance": (1e-3, "a bridge's force vector is handed to YADE again only when "
-                              "it has changed by more than this fraction of its magnitude "
-                              "(held as a permanent force meanwhile); 0: every step"),
+                         "added to the permanent forces, in between)"),
+    "force_tolerance": (0.0, "0: every wet grain's force is added (addF) every step, exact; "
+                             "> 0: a bridge's force vector is handed to YADE again only when "
+                             "it has changed by more than this fraction of its magnitude "
+                             "(added to the permanent forces meanwhile): fewer calls into "
+                             "YADE, forces off by up to that fraction"),
     "coalescence": (True, "detect coalesced bridges (report only)"),
     "coalescence_every": (100, "steps between coalescence checks"),
     "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
@@ -109,8 +156,88 @@ ENGINE_PARAMETERS = {
 
 
 def get_engine(label="capbridge"):
-    """The :class:`CapbridgeEngine` registered under ``label``."""
-    return _REGISTRY[label]
+    """The :class:`CapbridgeEngine` registered under ``label`` (re-created from the
+    scene's saved parameters after ``O.load`` in a new process)."""
+    eng = _REGISTRY.get(label)
+    return eng if eng is not None else CapbridgeEngine.from_scene(label)
+
+
+def _runner(label):
+    """What the PyRunner runs: the engine of ``label``'s step."""
+    get_engine(label).step()
+
+
+def _tag_key(label, what):
+    return f"{_TAG}:{label}:{what}"
+
+
+def _tag_get(O, key):
+    try:
+        return O.tags[key]
+    except KeyError:
+        return None
+
+
+def _pyrunners(O, label):
+    """Positions in ``O.engines`` of the PyRunners labelled ``label``, and the engines."""
+    engs = list(O.engines)
+    return [k for k, e in enumerate(engs)
+            if type(e).__name__ == "PyRunner" and e.label == label], engs
+
+
+@contextlib.contextmanager
+def _stashed(O):
+    """Write every running engine's state into ``O.tags`` for a save, then mark the
+    live scene as live again (the saved file carries a different mark, so the engine
+    knows it was loaded)."""
+    done = []
+    for eng in list(_REGISTRY.values()):
+        if _pyrunners(O, eng.label)[0]:
+            eng._stash(O)
+            done.append(eng)
+    try:
+        yield
+    finally:
+        for eng in done:
+            if eng._live is not None:
+                O.tags[_tag_key(eng.label, "live")] = eng._live
+
+
+def install_save_hooks():
+    """Wrap YADE's ``Omega.save`` and ``Omega.saveTmp`` so that the engines' states go
+    into the saved scene (idempotent; done when an engine is made).  Saving through
+    YADE's C++ side only (e.g. the Qt controller's save button) bypasses them."""
+    _, wrapper = _yade()
+    om = wrapper.Omega
+    if getattr(om, "_capbridge_hooked", False):
+        return
+    orig_save, orig_tmp = om.save, om.saveTmp
+
+    def save(self, *args, **kw):
+        with _stashed(self):
+            return orig_save(self, *args, **kw)
+
+    def save_tmp(self, *args, **kw):
+        with _stashed(self):
+            return orig_tmp(self, *args, **kw)
+
+    save.__doc__ = (orig_save.__doc__ or "") + "\n(capbridge: engine states saved in O.tags)"
+    save_tmp.__doc__ = (orig_tmp.__doc__ or "") + "\n(capbridge: engine states saved in O.tags)"
+    om.save, om.saveTmp = save, save_tmp
+    om._capbridge_hooked = True
+
+
+def _theta_to_json(theta):
+    """Contact angles as JSON (material keys keep their type: label or id)."""
+    if isinstance(theta, dict):
+        return {"by_material": [[k, float(v)] for k, v in theta.items()]}
+    return float(theta)
+
+
+def _theta_from_json(theta):
+    if isinstance(theta, dict):
+        return {k: v for k, v in theta["by_material"]}
+    return theta
 
 
 def _yade():
@@ -141,8 +268,8 @@ class CapbridgeEngine:
 
     See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters.
     The engine reads the grains (radii, materials, masses) at its first step; create it
-    before or after the bodies, but do not add or remove wet spheres afterwards
-    (call :meth:`reset` if you do).
+    before or after the bodies.  Erased wet spheres leave with their liquid (ledger);
+    spheres added later are refused with an error (give ``ids`` or call :meth:`reset`).
 
     Liquid rules (exactly one amount must be given):
 
@@ -153,20 +280,23 @@ class CapbridgeEngine:
       new liquid (as in YADE's ViscElCapMat).  Ledger: active = initial + formed -
       ruptured.
     * ``liquid_volume`` / ``water_content`` / ``saturation``: a **total liquid** W.
-      At the first step W is shared equally among the bridges formed then.  With
-      ``conserve_liquid=True`` (default) the liquid is conserved: a ruptured bridge
-      gives its liquid to its two grains (split in proportion to R^2), a new bridge
-      at contact takes ``film_fraction`` of what each of its grains holds (no bridge if
-      that is below the table's smallest V*; capped at its largest).  Ledger: bridges
-      + liquid on grains = W.  With ``conserve_liquid=False`` the equal share becomes
-      the fixed volume of every later bridge (fixed rule).
+      With ``conserve_liquid=True`` (default) the liquid is carried by the grains
+      (films, at the start in proportion to grain volume: a uniform water content)
+      and conserved: every bridge, at the first step or later, forms at contact from
+      the two films (``film_fraction`` of each, shared among the bridges a grain forms
+      in the same step; none if that is below the table's smallest V*, and the pair
+      is not tried again until a rupture gives one of its grains liquid; capped at
+      the largest), a ruptured bridge gives its liquid back to its two grains (split
+      in proportion to R^2).  Ledger: bridges + films = W (minus liquid on erased
+      grains).  With ``conserve_liquid=False`` W is shared equally among the first
+      step's bridges and that becomes the fixed volume of every later bridge.
     """
 
     def __init__(self, theta=0.0, gamma=0.073, *, bridge_volume=None, bridge_volume_star=None,
                  liquid_volume=None, water_content=None, saturation=None, sample_volume=None,
                  liquid_density=1000.0, conserve_liquid=None, film_fraction=0.5,
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
-                 force_tolerance=1e-3, coalescence=True,
+                 force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge"):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
@@ -178,7 +308,19 @@ class CapbridgeEngine:
                              "liquid_volume, water_content, saturation "
                              f"(got {totals + per_bridge or 'none'})")
         if saturation is not None and sample_volume is None:
-            raise ValueError("saturation needs sample_volume (the volume of the sample, m^3)")
+            raise CapbridgeInputError("saturation needs sample_volume (the volume of the "
+                                      "sample, m^3)")
+        from capbridge.validation import check_range
+        if water_content is not None:
+            check_range("water_content", water_content, 0.0, np.inf, low_open=True,
+                        hint="a fraction: liquid mass / grain mass, 0.01 for 1 %")
+        if saturation is not None:
+            check_range("saturation", saturation, 0.0, 1.0, low_open=True,
+                        hint="degree of saturation V_liquid / V_pores, 0.2 for 20 %")
+        if liquid_volume is not None:
+            check_range("liquid_volume", liquid_volume, 0.0, np.inf, low_open=True, units=" m^3")
+        if sample_volume is not None:
+            check_range("sample_volume", sample_volume, 0.0, np.inf, low_open=True, units=" m^3")
         if per_bridge and conserve_liquid:
             raise ValueError("conserve_liquid=True needs a total liquid (liquid_volume, "
                              "water_content or saturation), not a bridge volume")
@@ -211,7 +353,7 @@ class CapbridgeEngine:
         self.coalescence_report = None
         self._coal_summary = {"searched": False, "triplets": 0, "clusters": 0,
                               "coalesced_volume": 0.0, "checks": 0}
-        self._perm_rows = np.empty(0, np.intp)
+        self.pore_volume = None
         self._last_geom = None
         self._coal_last = 0
         self._coal_logged = 0
@@ -219,22 +361,83 @@ class CapbridgeEngine:
                         "coalescence_seconds": 0.0}
         self.events = {"formed": 0, "ruptured": 0}
         self.messages = []
+        self._live = None                     # mark of the live scene in O.tags
+        self._applied = np.empty((0, 3))      # our share of each grain's permanent force
+        self._erased = 0
+        self._parts = {}                      # extra state: name -> (get, set)
+        self._params = {k: v for k, v in locals().items()
+                        if k in ENGINE_PARAMETERS and k not in ("table",)}
+        self._params["table"] = str(self.table) if isinstance(self.table, (str, Path)) else None
+        self._params["theta"] = _theta_to_json(theta)
+        old = _REGISTRY.get(self.label)
+        if old is not None and old is not self and old._in_scene():
+            raise CapbridgeInputError(
+                f"label {self.label!r} is taken by another CapbridgeEngine whose PyRunner is in "
+                "O.engines: give every engine its own label (label='...')")
         _REGISTRY[self.label] = self
+        try:
+            install_save_hooks()
+        except ImportError:                   # no YADE here (numpy-only use)
+            pass
+
+    @classmethod
+    def from_scene(cls, label="capbridge"):
+        """The engine saved in the current scene's ``O.tags`` under ``label`` (after
+        ``O.load`` in a new process): made again from its saved parameters; its
+        state is read at its first step."""
+        yade, _ = _yade()
+        text = _tag_get(yade.Omega(), _tag_key(label, "params"))
+        if text is None:
+            raise CapbridgeStateError(
+                f"no CapbridgeEngine {label!r} in this process and none saved in the scene: "
+                f"create it (CapbridgeEngine(..., label={label!r})) before running")
+        params = json.loads(text)
+        if params.get("table") is None:
+            raise CapbridgeStateError(
+                f"CapbridgeEngine {label!r} was made with a table object, which the scene "
+                f"cannot hold: create it again with the same table (label={label!r}) after "
+                "O.load and before running; its state is then read from the scene")
+        params["theta"] = _theta_from_json(params["theta"])
+        return cls(**params)
+
+    def register_state(self, name, get, set_):
+        """Add a part to what is saved with the scene and restored after a load:
+        ``get()`` returns a dict of numpy arrays and JSON values, ``set_(dict)`` takes
+        it back (called after the bridges are restored)."""
+        if name in ("engine", "bridges"):
+            raise ValueError(f"state part {name!r} is the engine's own")
+        self._parts[name] = (get, set_)
+
+    def _in_scene(self):
+        try:
+            yade, _ = _yade()
+        except ImportError:
+            return False
+        return bool(_pyrunners(yade.Omega(), self.label)[0])
 
     # ----------------------------------------------------------------------- YADE side
     def pyrunner(self):
         """The ``PyRunner`` to put in ``O.engines`` after the ``InteractionLoop`` and
         before the ``NewtonIntegrator``."""
         _, wrapper = _yade()
-        cmd = ("from capbridge.dem_plugin.engine import _REGISTRY as _cbr; "
-               f"_cbr[{self.label!r}].step()")
+        cmd = f"from capbridge.dem_plugin.engine import _runner; _runner({self.label!r})"
         return wrapper.PyRunner(command=cmd, iterPeriod=self.refresh_every, initRun=True,
                                 label=self.label)
 
     def reset(self):
-        """Forget the bridges and the grains (read again at the next step)."""
+        """Forget the bridges and the grains (read again at the next step, dry), and
+        any state of this engine saved in the current scene."""
         self._clear_perm()
         self.model = None
+        self._live = None
+        try:
+            yade, _ = _yade()
+            tags = yade.Omega().tags
+            for what in ("state", "live"):
+                if _tag_get(yade.Omega(), _tag_key(self.label, what)) is not None:
+                    del tags[_tag_key(self.label, what)]
+        except ImportError:
+            pass
 
     def _materials_theta(self, bodies):
         th = self.theta
@@ -253,21 +456,23 @@ class CapbridgeEngine:
             out[:] = float(th)
         return out
 
-    def _setup(self):
+    def _setup(self, ids=None, table=None):
         t0 = time.perf_counter()
         yade, wrapper = _yade()
         O = yade.Omega()
         sphere_cls = wrapper.Sphere
-        if self.ids_requested is None:
+        ids = self.ids_requested if ids is None else [int(i) for i in ids]
+        if ids is None:
             bodies = [b for b in O.bodies if b is not None and isinstance(b.shape, sphere_cls)]
         else:
-            bodies = [O.bodies[i] for i in self.ids_requested]
+            n_b = len(O.bodies)
+            bodies = [O.bodies[i] if 0 <= i < n_b else None for i in ids]
             if any(b is None or not isinstance(b.shape, sphere_cls) for b in bodies):
-                raise ValueError("ids must be ids of existing spheres")
+                raise CapbridgeInputError("ids must be ids of existing spheres")
         if not bodies:
             raise ValueError("no spheres in the scene")
         if O.periodic:
-            raise NotImplementedError("periodic cells are not supported by CapbridgeEngine")
+            raise CapbridgeInputError("periodic cells are not supported by CapbridgeEngine yet")
         self.ids = np.array([b.id for b in bodies], np.intp)
         radii = np.array([b.shape.radius for b in bodies], float)
         theta = self._materials_theta(bodies)
@@ -278,17 +483,22 @@ class CapbridgeEngine:
         elif a["water_content"] is not None:
             mass = float(sum(b.state.mass for b in bodies))
             W = float(a["water_content"]) * mass / self.liquid_density
-        elif a["saturation"] is not None:
-            v_s = float((4.0 / 3.0 * math.pi * radii**3).sum())
+        v_s = float((4.0 / 3.0 * math.pi * radii**3).sum())
+        v_p = None
+        if self.sample_volume is not None:
             v_p = float(self.sample_volume) - v_s
             if not v_p > 0:
-                raise ValueError(f"sample_volume {self.sample_volume:g} m^3 is not larger than "
-                                 f"the grains' volume {v_s:g} m^3")
+                raise CapbridgeInputError(f"sample_volume {self.sample_volume:g} m^3 is not "
+                                          f"larger than the grains' volume {v_s:g} m^3")
+        if a["saturation"] is not None:
             W = float(a["saturation"]) * v_p
+        self._check_liquid_amount(W, v_s, v_p, bodies)
         rule = LiquidRule(bridge_volume=a["bridge_volume"],
                           bridge_volume_star=a["bridge_volume_star"], total_liquid=W,
                           conserve=self.conserve_liquid, film_fraction=self.film_fraction)
-        self.model = BridgeModel(radii, theta, self.table, self.gamma, rule,
+        self.pore_volume = v_p
+        self.model = BridgeModel(radii, theta, self.table if table is None else table,
+                                 self.gamma, rule,
                                  formation_gap=self.formation_gap,
                                  initial_wet_gap=self.initial_wet_gap, skin=self.skin,
                                  with_beta=self.coalescence, ratio_step=self.ratio_step)
@@ -300,13 +510,62 @@ class CapbridgeEngine:
                   f"{tab.ratio_nodes.size} ({'exact' if tab.discrete else 'interpolated'}), "
                   f"table slices {tab.nbytes / 1e6:.1f} MB, refresh every {self.refresh_every}")
 
+    def _check_liquid_amount(self, W, v_s, v_p, bodies):
+        """A total liquid the grains cannot hold is an input error, not a number."""
+        if W is None:
+            return
+        a = self.amount
+        if v_p is not None and W > v_p * (1 + 1e-12):
+            raise CapbridgeInputError(
+                f"the liquid ({W:.4g} m^3) is more than the pores of the sample hold "
+                f"({v_p:.4g} m^3): saturation {W / v_p:.4g} is outside (0, 1]")
+        if W > MAX_VOID_RATIO * v_s:
+            if a["water_content"] is not None:
+                mass = float(sum(b.state.mass for b in bodies))
+                w_max = MAX_VOID_RATIO * v_s * self.liquid_density / mass
+                raise CapbridgeInputError(
+                    f"water_content={a['water_content']!r} gives {W / v_s:.3g} m^3 of liquid per "
+                    f"m^3 of grains, more than the pores of any sphere packing hold: allowed "
+                    f"(0, {w_max:.3g}] for these grains (a fraction: 0.01 for 1 %)")
+            raise CapbridgeInputError(
+                f"liquid_volume={W!r} m^3 is more than the pores of any packing of these grains "
+                f"hold: allowed (0, {MAX_VOID_RATIO * v_s:.4g}] m^3")
+
     def _map_rows(self):
-        """Rows of our spheres in the bulk position read (body iteration order)."""
-        yade, _ = _yade()
-        where, self._n_read = _rows_of_ids(yade.Omega())
-        self._rows = where[self.ids]
-        if np.any(self._rows < 0):
-            raise RuntimeError("a wet sphere was erased; call reset()")
+        """Rows of our spheres in the bulk position read (body iteration order);
+        erased spheres leave the model (:meth:`BridgeModel.drop_grains`), added spheres
+        are an error."""
+        yade, wrapper = _yade()
+        O = yade.Omega()
+        where, self._n_read = _rows_of_ids(O)
+        ids = self.ids
+        rows = np.where(ids < where.size, where[np.minimum(ids, where.size - 1)], -1)
+        gone = rows < 0
+        if gone.any():
+            self.model.drop_grains(gone)
+            lost = ids[gone]
+            self.ids = ids[~gone]
+            self._erased += int(gone.sum())
+            if self._applied.shape[0] == gone.size:
+                self._applied = self._applied[~gone]
+            rows = rows[~gone]
+            b = self.model.budget()
+            self._say("warning", f"capbridge {self.label!r}: {lost.size} wet spheres erased "
+                      f"(ids {lost[:10].tolist()}{' ...' if lost.size > 10 else ''}): their "
+                      f"bridges ruptured, {b['removed_volume']:.4g} m^3 of liquid left with "
+                      "them in all (ledger removed_volume)")
+        if self.ids_requested is None:
+            sph = wrapper.Sphere
+            n_sph = sum(1 for b in O.bodies if b is not None and isinstance(b.shape, sph))
+            if n_sph > self.ids.size:
+                known = set(self.ids.tolist())
+                new = [b.id for b in O.bodies if b is not None and isinstance(b.shape, sph)
+                       and b.id not in known]
+                raise CapbridgeInputError(
+                    f"{len(new)} spheres were added after capbridge engine {self.label!r} "
+                    f"started (ids {new[:10]}): they would stay dry; give the wet spheres' "
+                    "ids (ids=[...]) or call cap.reset() (starts again, bridges lost)")
+        self._rows = rows
 
     def positions(self):
         """(n, 3) centres of the wet spheres, one bulk read per axis."""
@@ -320,8 +579,7 @@ class CapbridgeEngine:
         t0, c0 = time.perf_counter(), time.thread_time()
         yade, _ = _yade()
         O = yade.Omega()
-        if self.model is None:
-            self._setup()
+        self._sync(O)
         it = int(O.iter)
         pos = self.positions()
         pairs = None
@@ -345,28 +603,147 @@ class CapbridgeEngine:
         self.timings["seconds"] += time.perf_counter() - t0
         self.timings["cpu_seconds"] += time.thread_time() - c0
 
+    @property
+    def holds_forces(self):
+        """True when the forces are held as permanent forces between updates."""
+        return self.force_tolerance > 0.0 or self.refresh_every > 1
+
     def _apply(self, forces, changed, O):
-        """Hand the grain forces to YADE: ``addF`` every step when nothing is held
-        (tolerance 0, refresh every step), else permanent forces on changed grains."""
-        if self.force_tolerance == 0.0 and self.refresh_every == 1:
+        """Hand the grain forces to YADE, always *adding* to what is there: ``addF``
+        every step when nothing is held (tolerance 0, refresh every step); else our
+        change of each changed grain's permanent force, on top of the permanent force
+        present (the user's stays)."""
+        if not self.holds_forces:
             nz = np.flatnonzero(np.any(forces != 0.0, axis=1))
             add = O.forces.addF
             for i, f in zip(self.ids[nz].tolist(), forces[nz].tolist()):
                 add(i, f)
             return
-        setp = O.forces.setPermF
-        for i, f in zip(self.ids[changed].tolist(), forces[changed].tolist()):
+        self._add_perm(changed, forces[changed], O)
+
+    def _add_perm(self, rows, new, O):
+        """Permanent force of grains ``rows`` := present - our old share + ``new``."""
+        if self._applied.shape[0] != self.ids.size:
+            self._applied = np.zeros((self.ids.size, 3))
+        if rows.size == 0:
+            return
+        perm, setp = O.forces.permF, O.forces.setPermF
+        ids = self.ids[rows].tolist()
+        if O.forces.getPermForceUsed():
+            present = np.array([tuple(perm(i)) for i in ids], float).reshape(-1, 3)
+        else:   # YADE's permF is not safe to read before any permanent force exists
+            present = np.zeros((len(ids), 3))
+        total = present - self._applied[rows] + new
+        for i, f in zip(ids, total.tolist()):
             setp(i, f)
-        self.timings["perm_updates"] = self.timings.get("perm_updates", 0) + int(changed.size)
-        self._perm_rows = np.union1d(self._perm_rows, changed)
+        self._applied[rows] = new
+        self.timings["perm_updates"] = self.timings.get("perm_updates", 0) + int(rows.size)
 
     def _clear_perm(self):
-        if self._perm_rows.size and self.model is not None:
-            yade, _ = _yade()
-            O = yade.Omega()
-            for i in self.ids[self._perm_rows].tolist():
-                O.forces.setPermF(i, (0.0, 0.0, 0.0))
-        self._perm_rows = np.empty(0, np.intp)
+        """Take our share out of the permanent forces (the user's stay)."""
+        if self.model is not None and self._applied.shape[0] == self.ids.size:
+            rows = np.flatnonzero(np.any(self._applied != 0.0, axis=1))
+            if rows.size:
+                yade, _ = _yade()
+                self._add_perm(rows, np.zeros((rows.size, 3)), yade.Omega())
+        self._applied = np.empty((0, 3))
+
+    # ------------------------------------------------------------------ save / restore
+    def _sync(self, O):
+        """Before a step: set up at the first step, restore after a load, check the
+        engine list now and then."""
+        live = _tag_get(O, _tag_key(self.label, "live"))
+        if self.model is not None and live == self._live:
+            if self.timings["steps"] % 100 == 0:
+                self._check_engines(O)
+            return
+        self._check_engines(O)
+        stash = _tag_get(O, _tag_key(self.label, "state"))
+        if stash is not None and live is not None and live.startswith("saved:"):
+            self._restore(O, stash)
+        elif self.model is None:
+            self._setup()
+            self._applied = np.zeros((self.ids.size, 3))
+        else:
+            raise CapbridgeStateError(
+                f"capbridge engine {self.label!r}: the scene was replaced (O.load / O.reset) "
+                "by one without this engine's saved state, so its bridges do not belong to "
+                "it; call cap.reset() to start it dry on the new scene")
+        self._live = f"live:{uuid.uuid4().hex}"
+        O.tags[_tag_key(self.label, "live")] = self._live
+
+    def _engine_state(self):
+        return {"ids": self.ids.copy(), "events": dict(self.events),
+                "coalescence": dict(self._coal_summary), "coal_last": int(self._coal_last),
+                "coal_logged": int(self._coal_logged), "erased": int(self._erased),
+                "pore_volume": self.pore_volume, "holds_forces": self.holds_forces}
+
+    def _stash(self, O):
+        """Write the parameters and, once started, the state into ``O.tags``."""
+        O.tags[_tag_key(self.label, "params")] = json.dumps(self._params)
+        if self.model is None:
+            return
+        parts = {"engine": self._engine_state(), "bridges": self.model.get_state()}
+        for name, (get, _) in self._parts.items():
+            parts[name] = get()
+        O.tags[_tag_key(self.label, "state")] = state_io.pack(parts)
+        O.tags[_tag_key(self.label, "live")] = f"saved:{uuid.uuid4().hex}"
+
+    def _restore(self, O, text):
+        """Continue from a saved state (after ``O.load`` / ``O.loadTmp``)."""
+        t0 = time.perf_counter()
+        st = state_io.unpack(text)
+        eng = st["engine"]
+        ids = np.asarray(eng["ids"], np.intp)
+        same = self.model is not None and np.array_equal(ids, self.ids)
+        # same grains as the live model: its table (slices) serves again
+        self._setup(ids=ids.tolist(), table=self.model.table if same else None)
+        self.model.set_state(st["bridges"])
+        for name, (_, set_) in self._parts.items():
+            if name in st:
+                set_(st[name])
+        self.events = dict(eng["events"])
+        self._coal_summary = dict(eng["coalescence"])
+        self._coal_last, self._coal_logged = int(eng["coal_last"]), int(eng["coal_logged"])
+        self._erased = int(eng["erased"])
+        self._last_geom = None
+        # YADE drops every permanent force on load: ours go back on (the user's are
+        # the user's to set again)
+        self._applied = np.zeros((self.ids.size, 3))
+        if self.holds_forces:
+            f = self.model.held_grain_forces()
+            rows = np.flatnonzero(np.any(f != 0.0, axis=1))
+            self._add_perm(rows, f[rows], O)
+        self.timings["restore_seconds"] = self.timings.get("restore_seconds", 0.0) + \
+            time.perf_counter() - t0
+        self._say("info", f"capbridge engine {self.label!r}: state restored at iter {int(O.iter)} "
+                  f"({self.model.n_bridges} bridges) in {time.perf_counter() - t0:.2f} s")
+
+    def _check_engines(self, O):
+        """The PyRunner must be in O.engines once, after ForceResetter and before
+        NewtonIntegrator (else its forces are wiped before they act), with the
+        engine's period."""
+        mine, engs = _pyrunners(O, self.label)
+        names = [type(e).__name__ for e in engs]
+        if len(mine) != 1:
+            raise CapbridgeInputError(
+                f"{len(mine)} PyRunners labelled {self.label!r} in O.engines {names}: put "
+                "cap.pyrunner() there exactly once, and give every CapbridgeEngine its own "
+                "label")
+        k = mine[0]
+        reset = [i for i, n in enumerate(names) if n == "ForceResetter"]
+        newton = [i for i, n in enumerate(names) if n == "NewtonIntegrator"]
+        if not (reset and newton and reset[0] < k < newton[0]):
+            raise CapbridgeInputError(
+                f"capbridge engine {self.label!r} is at position {k} of O.engines {names}: it "
+                "must be after ForceResetter and before NewtonIntegrator (its forces are "
+                "otherwise reset before they act); put cap.pyrunner() right after the "
+                "InteractionLoop")
+        if int(engs[k].iterPeriod) != self.refresh_every:
+            raise CapbridgeInputError(
+                f"the PyRunner of capbridge engine {self.label!r} has iterPeriod="
+                f"{engs[k].iterPeriod}, the engine refresh_every={self.refresh_every}: make "
+                "it with cap.pyrunner()")
 
     # --------------------------------------------------------------------- coalescence
     def check_coalescence(self, pos=None, geom=None):
@@ -442,11 +819,13 @@ class CapbridgeEngine:
         """JSON-friendly summary: bridges, liquid ledger, coalescence, timings."""
         m = self.model
         out = {"label": self.label, "iter": self._iter(), "initialised": m is not None,
+               "erased_spheres": self._erased,
                "refresh_every": self.refresh_every, "events": dict(self.events),
                "timings": dict(self.timings), "coalescence": dict(self._coal_summary)}
         if m is not None:
             g = self._last_geom
             out.update(n_spheres=int(m.n), n_bridges=m.n_bridges, budget=m.budget(),
+                       liquid=m.liquid_report(self.pore_volume),
                        thetas=m.table.thetas.tolist(), ratio_nodes=m.table.ratio_nodes.tolist(),
                        table_mbytes=m.table.nbytes / 1e6,
                        candidate_pairs=int(m.cand.i.size), verlet_rebuilds=m.cand.rebuilds,
