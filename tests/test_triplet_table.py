@@ -1,0 +1,136 @@
+"""Coalesced-triplet table: relabelling symmetry of the stored cube, and re-solves of
+shipped points by Surface Evolver with the settings recorded in the file."""
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from capbridge.dimensionless import canonical_triplet
+from capbridge.generator.evolver import available
+from capbridge.generator.triplet import pair_forces, triplet_geometry
+from capbridge.generator.triplet_table import (PAIR_NAMES, PAIRS, EvolverPlan, TripletGrid,
+                                               _expand_to_cube, failure_kind)
+from capbridge.status import Status
+
+TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
+                            Path(__file__).resolve().parent.parent / "data" / "triplet_table.nc"))
+
+
+def _phi(d_own, d_others):
+    """A pair force that depends on its own gap and on the other two (any labelling)."""
+    return 0.9 - 1.3 * d_own + 0.4 * d_others ** 2
+
+
+def test_canonical_triplet_sorts_and_relabels():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        d = rng.choice([0.0, 0.1, 0.2], 3) if rng.random() < 0.5 else rng.uniform(0, .3, 3)
+        srt, perm = canonical_triplet(*d)
+        assert np.all(np.diff(srt) >= 0)
+        gaps = {(0, 1): d[0], (0, 2): d[1], (1, 2): d[2]}
+        for (a, b), s in zip(PAIRS, srt):
+            assert gaps[tuple(sorted((perm[a], perm[b])))] == s
+        assert sorted(perm) == [0, 1, 2]
+
+
+def test_cube_expansion_permutes_pair_forces_and_rotates_vectors():
+    grid = TripletGrid((0.0, 0.1, 0.2), (30.0,), (1.0,))
+    canon = grid.canonical_geometries()
+    n = len(canon)
+    per = {name: np.zeros((n, 1, 1)) for name in PAIR_NAMES}
+    per["force"] = np.zeros((n, 1, 1, 3, 3))
+    per["volume_coalescence"] = np.arange(n, dtype=float)[:, None]
+    for k, (d12, d13, d23) in enumerate(canon):
+        g = {(0, 1): d12, (0, 2): d13, (1, 2): d23}
+        f = {}
+        for (i, j), name in zip(PAIRS, PAIR_NAMES):
+            others = sum(v for p, v in g.items() if p != (i, j))
+            f[(i, j)] = _phi(g[(i, j)], others)
+            per[name][k] = f[(i, j)]
+        geom = triplet_geometry(d12, d13, d23)
+        for (i, j), fij in f.items():
+            per["force"][k, 0, 0, i] += fij * geom.axis(i, j)
+            per["force"][k, 0, 0, j] -= fij * geom.axis(i, j)
+    cube = _expand_to_cube(grid, canon, per)
+    g = grid.gaps
+    for a, b, c in np.ndindex(3, 3, 3):
+        gaps = {(0, 1): g[a], (0, 2): g[b], (1, 2): g[c]}
+        geom = triplet_geometry(g[a], g[b], g[c])
+        F = cube["force"][a, b, c, 0, 0]
+        for (i, j), name in zip(PAIRS, PAIR_NAMES):
+            others = sum(v for p, v in gaps.items() if p != (i, j))
+            assert cube[name][a, b, c, 0, 0] == pytest.approx(_phi(gaps[(i, j)], others),
+                                                              abs=1e-14)
+        # the relabelled, rotated vectors decompose into the same pair forces here
+        f, res = pair_forces(geom.centres, F)
+        assert res < 1e-12
+        for (i, j), name in zip(PAIRS, PAIR_NAMES):
+            assert f[(i, j)] == pytest.approx(cube[name][a, b, c, 0, 0], abs=1e-12)
+        # a scalar of the geometry is the same for every labelling
+        srt, _ = canonical_triplet(g[a], g[b], g[c])
+        k = int(np.flatnonzero(np.all(np.isclose(canon, srt), axis=1))[0])
+        assert cube["volume_coalescence"][a, b, c, 0] == k
+
+
+def test_failure_kinds_from_driver_reasons():
+    assert failure_kind(Status.CONVERGED, "") == 0
+    assert failure_kind(Status.NOT_CONVERGED, "level 2: pinch: bridge 1 pinching off") == 1
+    assert failure_kind(Status.NOT_CONVERGED, "level 3 (main) timed out") == 3
+    assert failure_kind(Status.NOT_CONVERGED, "fold: inverted/folded facets") == 2
+    assert failure_kind(Status.NOT_CONVERGED, "something new") == 4
+
+
+# ---- the shipped table --------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def table():
+    from capbridge.generator.netcdf_io import read_table
+
+    return read_table(TABLE)
+
+
+def test_shipped_table_is_symmetric_under_relabelling(table):
+    # f12(d12, d13, d23) = f13(d13, d12, d23): swapping grains 2 and 3
+    f12 = table["f12"].transpose("d12", "d13", "d23", "theta", "v").values
+    f13 = table["f13"].transpose("d13", "d12", "d23", "theta", "v").values
+    both = np.isfinite(f12) & np.isfinite(f13)
+    assert both.sum() > 0.5 * f12.size
+    np.testing.assert_array_equal(np.isfinite(f12), np.isfinite(f13))
+    np.testing.assert_allclose(f12[both], f13[both], rtol=0, atol=1e-12)
+
+
+def test_shipped_table_forces_balance_and_records_its_command(table):
+    ok = np.isin(table["status"].values, [Status.CONVERGED, Status.ABOVE_TOLERANCE])
+    assert ok.mean() > 0.6
+    F = table["force"].values[ok]                        # (n, grain, component)
+    scale = np.abs(F).max(axis=(1, 2))
+    # no gravity: the forces balance up to the mesh (checked by the driver's residual)
+    assert np.all(np.linalg.norm(F.sum(axis=1), axis=1) < 2e-2 * scale)
+    assert np.all(table["pair_residual"].values[ok] < 2e-2)
+    assert table.attrs["capbridge_command"].startswith("capbridge generate triplet")
+    json.loads(table.attrs["evolver_settings"])
+
+
+@pytest.mark.evolver
+@pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
+def test_shipped_points_resolved_by_evolver(table):
+    """Two canonical points of the shipped table solved again with its recorded settings."""
+    from capbridge.generator.triplet_evolver import evolver_triplet
+
+    plan = EvolverPlan(**json.loads(table.attrs["evolver_settings"]))
+    pts = [dict(d12=0.0, d13=0.1, d23=0.2, theta=60.0, v=1.25),
+           dict(d12=0.1, d13=0.1, d23=0.1, theta=40.0, v=1.0)]
+    for p in pts:
+        row = table.sel(**p)
+        assert int(row["status"]) in (Status.CONVERGED, Status.ABOVE_TOLERANCE)
+        geom = triplet_geometry(p["d12"], p["d13"], p["d23"])
+        r = evolver_triplet(float(row["volume"]), geom, p["theta"], "coalesced",
+                            max_refine=plan.max_refine, tol=plan.ftol, etol=plan.etol,
+                            inspect_mesh=False, workers=1, retry_rings=plan.retry_rings)
+        err = float(row["force_error"])
+        for key, name in zip(("12", "13", "23"), PAIR_NAMES):
+            assert r["pair_forces"][key] == pytest.approx(float(row[name]),
+                                                          abs=max(err, 1e-4))
