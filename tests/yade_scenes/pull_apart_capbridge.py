@@ -34,6 +34,8 @@ cli = argparse.ArgumentParser()
 cli.add_argument("--r1", type=float, default=1e-3)
 cli.add_argument("--r2", type=float, default=1e-3)
 cli.add_argument("--theta", type=float, default=0.0)
+cli.add_argument("--theta2", type=float, default=None,
+                 help="contact angle of sphere 1's material (python backend; default theta)")
 cli.add_argument("--vstar", type=float, default=0.05)
 cli.add_argument("--gamma", type=float, default=0.073)
 cli.add_argument("--steps", type=int, default=400)
@@ -46,7 +48,8 @@ cfg = cli.parse_args(sys.argv[1:])
 
 rs = min(cfg.r1, cfg.r2)
 if cfg.backend == "python":
-    cap = CapbridgeEngine(theta=cfg.theta, gamma=cfg.gamma, bridge_volume=cfg.vstar * rs**3,
+    theta = cfg.theta if cfg.theta2 is None else {"m0": cfg.theta, "m1": cfg.theta2}
+    cap = CapbridgeEngine(theta=theta, gamma=cfg.gamma, bridge_volume=cfg.vstar * rs**3,
                           initial_wet_gap=1e-9 * rs, refresh_every=cfg.refresh,
                           force_tolerance=cfg.tolerance, label="pull")
     factor = 1.0
@@ -64,14 +67,22 @@ else:
 # the rupture gap this bridge will have (same table, same lookup)
 from capbridge.dem_plugin.bridges import SceneTable, default_table_path  # noqa: E402
 
-tab = SceneTable(default_table_path(), [cfg.theta], [max(cfg.r1, cfg.r2) / rs])
-d_r = float(tab.predict(0.0, cfg.vstar, cfg.theta, max(cfg.r1, cfg.r2) / rs)["rupture_gap"][()]) * rs
+t_small, t_large = cfg.theta, cfg.theta if cfg.theta2 is None else cfg.theta2
+if cfg.r2 < cfg.r1:
+    t_small, t_large = t_large, t_small
+tab = SceneTable(default_table_path(), [t_small], [max(cfg.r1, cfg.r2) / rs],
+                 theta_pairs=[(t_small, t_large)])
+d_r = float(tab.predict(0.0, cfg.vstar, t_small, max(cfg.r1, cfg.r2) / rs,
+                        theta2=t_large)["rupture_gap"][()]) * rs
 
 axis = np.array([1.0, 2.0, 2.0]) / 3.0
-mat = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5))
+mat = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5,
+                                  label="m0"))
+mat1 = O.materials.append(FrictMat(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5,
+                                   label="m1")) if cfg.theta2 is not None else mat
 b0 = O.bodies.append(utils.sphere((0, 0, 0), cfg.r1, fixed=True, material=mat))
 b1 = O.bodies.append(utils.sphere(tuple((cfg.r1 + cfg.r2) * axis), cfg.r2, fixed=True,
-                                  material=mat))
+                                  material=mat1))
 O.dt = 1e-6
 speed = cfg.stretch * d_r / (cfg.steps * O.dt)
 O.bodies[b1].state.vel = Vector3(*(speed * axis))
@@ -96,7 +107,8 @@ for k in range(cfg.steps):
     f0, f1 = O.forces.f(b0), O.forces.f(b1)
     rows.append({"gap": gap, "f0": [float(x) for x in f0], "f1": [float(x) for x in f1],
                  "n_bridges": n_b})
-yade_runtime.emit_result({"r1": cfg.r1, "r2": cfg.r2, "theta": cfg.theta, "vstar": cfg.vstar,
+yade_runtime.emit_result({"r1": cfg.r1, "r2": cfg.r2, "theta": cfg.theta, "theta2": cfg.theta2,
+                          "vstar": cfg.vstar,
                           "gamma": cfg.gamma, "axis": axis.tolist(), "d_rupt": d_r,
                           "backend": cfg.backend, "refresh": cfg.refresh,
                           "state": cap.state() if cfg.backend == "python" else cap.info,
