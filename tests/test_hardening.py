@@ -510,7 +510,7 @@ def test_evolver_status_above_tolerance():
 
     from capbridge.generator.evolver.minimise import BridgeResult, Settings, _set_final_status
 
-    s = Settings()
+    s = Settings(flag_above_tolerance=True)
     for est, expected in (({"energy_rel": 1e-4, "force_rel": 1e-4}, Status.CONVERGED),
                           ({"energy_rel": 1e-4, "force_rel": 10 * s.ftol},
                            Status.ABOVE_TOLERANCE),
@@ -519,6 +519,12 @@ def test_evolver_status_above_tolerance():
         res = SimpleNamespace(error_estimate=est, warnings=[], status=None, reason="")
         _set_final_status(res, s)
         assert res.status == expected
+        # switched off (the default until every caller accepts the new status): the
+        # old status, but the reason still says so
+        old = SimpleNamespace(error_estimate=est, warnings=[], status=None, reason="")
+        _set_final_status(old, Settings())
+        assert old.status == Status.CONVERGED
+        assert ("above tolerance" in old.reason) == (expected == Status.ABOVE_TOLERANCE)
     r = BridgeResult(status=Status.ABOVE_TOLERANCE, reason="x")
     assert r.converged and not r.within_tolerance     # numbers there, precision not
     assert int(Status.ABOVE_TOLERANCE) == 7 and int(Status.EXTRAPOLATED) == 6
@@ -531,7 +537,8 @@ def test_evolver_single_level_is_not_converged():
 
     if not available():
         pytest.skip("Surface Evolver not installed")
-    F, r = doublet_force(0.1, 0.05, 30.0, settings=Settings(max_refine=0, min_refine=0))
+    F, r = doublet_force(0.1, 0.05, 30.0, settings=Settings(max_refine=0, min_refine=0,
+                                                            flag_above_tolerance=True))
     assert r.status == Status.ABOVE_TOLERANCE and np.isinf(r.error_estimate["force_rel"])
     assert np.isfinite(F) and "above tolerance" in r.reason
 

@@ -72,6 +72,10 @@ class Settings:
     total_timeout: float = 3600.0
     workers: int | None = None    # Evolver processes at once (default min(2, cores))
     keep_files: bool = False      # keep the temporary directory (path in result)
+    flag_above_tolerance: bool = False   # status ABOVE_TOLERANCE (not CONVERGED) for a
+                                  # result whose own error estimate exceeds etol/ftol at
+                                  # the last level; off until every caller accepts it
+                                  # (they test status == CONVERGED for "has a result")
     one_sided: bool = True        # keep free vertices outside the grains (never switch off
                                   # except to see the failure checks at work)
     tolerances: checks.Tolerances = field(default_factory=checks.Tolerances)
@@ -441,8 +445,9 @@ def minimise(problem, settings=None):
 
     Returns a :class:`BridgeResult`; its ``status`` is ``Status.CONVERGED`` only when every
     check passed at the final level and the estimated errors are within tolerance;
-    ``Status.ABOVE_TOLERANCE`` when the maximum refinement (or the last level passing
-    the checks) was reached with an estimate above ``etol``/``ftol`` (with a warning).
+    ``Status.ABOVE_TOLERANCE`` (with ``Settings.flag_above_tolerance``; otherwise still
+    CONVERGED) when the maximum refinement (or the last level passing the checks) was
+    reached with an estimate above ``etol``/``ftol``; a warning and ``reason`` say so.
     """
     s = settings or Settings()
     t_start = time.monotonic()
@@ -593,15 +598,16 @@ def _levels(R, res):
 def _set_final_status(res, s, final_fail=None):
     """CONVERGED when the result's own error estimates are within ``etol``/``ftol``;
     otherwise (finest level allowed, or the last level that passed the checks)
-    ABOVE_TOLERANCE, with the estimates in ``reason`` and ``warnings``.  A single level
-    (``max_refine=0``) has no estimate (infinite): never CONVERGED."""
+    ABOVE_TOLERANCE with ``s.flag_above_tolerance`` (else CONVERGED, as before), with the
+    estimates in ``reason`` and ``warnings`` either way.  A single level
+    (``max_refine=0``) has no estimate (infinite): never within tolerance."""
     ok_e = res.error_estimate.get("energy_rel", np.inf) <= s.etol
     ok_f = res.error_estimate.get("force_rel", np.inf) <= s.ftol
     if ok_e and ok_f:
         res.status = Status.CONVERGED
         res.reason = "converged"
     else:
-        res.status = Status.ABOVE_TOLERANCE
+        res.status = Status.ABOVE_TOLERANCE if s.flag_above_tolerance else Status.CONVERGED
         res.reason = ("maximum refinement reached, error estimate above tolerance"
                       if final_fail is None else
                       "finest level that passed all checks, error estimate above tolerance")
@@ -748,7 +754,8 @@ def doublet_force(gap, volume, theta, ratio=1.0, theta2=None, settings=None, **k
     """Axial force F* (attraction > 0) of a liquid bridge between two spheres.
 
     Radius 1 (normalising) and ``ratio``; gap d*, volume V*, contact angles in degrees.
-    Returns (F*, BridgeResult); F* is NaN unless the result converged.
+    Returns (F*, BridgeResult); F* is NaN unless the result has one (``res.converged``:
+    CONVERGED or ABOVE_TOLERANCE).
     """
     pb = doublet_problem(gap, volume, theta, ratio, theta2)
     s = settings or Settings(**kw)
