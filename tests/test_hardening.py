@@ -254,6 +254,36 @@ def test_dask_without_workers_fails_after_the_timeout(tmp_path):
         res.raise_if_failed()
 
 
+def test_lost_dask_scheduler_keeps_finished_chunks(tmp_path, monkeypatch):
+    """The scheduler goes away mid-sweep: the sweep returns (no wait), the chunks
+    finished before are checkpointed, and a rerun computes only the others."""
+    import threading
+
+    distributed = pytest.importorskip("distributed")
+    monkeypatch.setenv("CAPBRIDGE_TEST_SLEEP", "0.5")
+    ck, x = tmp_path / "ck", np.arange(8.0)
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                       dashboard_address=None)
+    client = distributed.Client(cluster)
+    threading.Timer(1.8, cluster.close).start()
+    t0 = time.monotonic()
+    try:
+        res = run_sweep(solve_slowly, {"x": x, "y": x}, checkpoint_dir=ck, chunk_size=1,
+                        scheduler=client, progress=False, worker_timeout=20)
+    finally:
+        client.close()
+        cluster.close()
+    assert time.monotonic() - t0 < 20
+    assert res.failures and 1 <= len(res.computed) < 8
+    with pytest.raises(SweepFailedError, match="rerun"):
+        res.raise_if_failed()
+    monkeypatch.setenv("CAPBRIDGE_TEST_SLEEP", "0")
+    again = run_sweep(solve_slowly, {"x": x, "y": x}, checkpoint_dir=ck, chunk_size=1,
+                      n_jobs=1, progress=False)
+    assert again.reused == res.computed and again.computed == [f.index for f in res.failures]
+    np.testing.assert_array_equal(again["F"], x * x)
+
+
 def test_scheduler_that_does_not_answer(tmp_path):
     pytest.importorskip("distributed")
     t0 = time.monotonic()

@@ -455,6 +455,10 @@ def _iter_dask(solve_chunk, tasks, scheduler, worker_timeout=DASK_WORKER_TIMEOUT
                                      return_when="FIRST_COMPLETED")
             except TimeoutError:
                 done = set()
+            except Exception:  # e.g. FuturesCancelledError: the scheduler was lost
+                done = {f for f in pending
+                        if f.done() or f.status in ("cancelled", "lost", "error")}
+                pending = pending - done
             for fut in done:
                 try:
                     yield fut.result()
