@@ -68,20 +68,6 @@ LOOKUP_OUTPUTS = {"force": "F", "pressure": "P", "beta1": "beta1", "beta2": "bet
 LOOKUP_RESERVED = tuple(LOOKUP_OUTPUTS.values()) + ("status", "method")
 
 
-def _check_new_output(path, inputs=(), overwrite=False, flag="--overwrite"):
-    """An output path that can be written and replaces nothing of the user's (checked
-    before computing)."""
-    from capbridge.tabular_io import check_output_path
-
-    path = check_output_path(path)
-    if any(Path(i).exists() and path.exists() and path.samefile(i) for i in inputs):
-        raise CapbridgeInputError(f"--output {path} is the input file; give another name")
-    if path.exists() and not overwrite:
-        raise CapbridgeInputError(f"--output {path} exists; give another name, or {flag} "
-                                  f"to replace it")
-    return path
-
-
 def lookup_points(sur, d, V, theta, ratio, theta2=None):
     """Answers for CSV points: the table where theta2 == theta, the exact solver elsewhere.
 
@@ -115,10 +101,10 @@ def lookup_points(sur, d, V, theta, ratio, theta2=None):
 def cmd_lookup_doublet(args):
     import pandas as pd
 
-    from capbridge.tabular_io import read_points_csv
+    from capbridge.tabular_io import check_new_output, read_points_csv
 
     columns, x = read_points_csv(args.input, LOOKUP_INPUTS, LOOKUP_OPTIONAL, LOOKUP_RESERVED)
-    _check_new_output(args.output, [args.input], args.overwrite)
+    check_new_output(args.output, inputs=[args.input], overwrite=args.overwrite)
     sur = _load_surrogate(args.table, "clip" if args.clip else "raise")
     r = lookup_points(sur, x["d"], x["V"], x["theta"], x.get("ratio", 1.0), x.get("theta2"))
     df = pd.DataFrame(columns)

@@ -18,7 +18,7 @@ import numpy as np
 
 from capbridge.validation import CapbridgeInputError
 
-__all__ = ["read_points_csv", "check_output_path", "parse_number"]
+__all__ = ["read_points_csv", "check_output_path", "check_new_output", "parse_number"]
 
 # a decimal number (sign, digits, point, exponent) or nan/inf: what a CSV of points
 # may hold; Python's float() would also take "1_000", and pandas "True"
@@ -154,4 +154,17 @@ def check_output_path(path, what="output"):
     except OSError as exc:
         raise CapbridgeInputError(f"{what} {path} cannot be written: "
                                   f"{exc.strerror or exc}") from None
+    return path
+
+
+def check_new_output(path, inputs=(), overwrite=False, flag="--overwrite", what="--output"):
+    """:func:`check_output_path`, and nothing of the user's is replaced: ``path`` may not
+    be one of the ``inputs``, and an existing file only with ``overwrite`` (``flag``
+    names the option in the message).  Returns ``Path(path)``."""
+    path = check_output_path(path, what=what)
+    if any(Path(i).exists() and path.exists() and path.samefile(i) for i in inputs):
+        raise CapbridgeInputError(f"{what} {path} is the input file; give another name")
+    if path.exists() and not overwrite:
+        raise CapbridgeInputError(f"{what} {path} exists; give another name, or {flag} "
+                                  f"to replace it")
     return path

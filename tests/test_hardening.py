@@ -112,6 +112,7 @@ def made(tmp_path_factory):
         with redirect_stderr(err1):
             code1 = main(args)
         calls_first = list(calls)
+        after_fail = {"table": table.exists(), "bridges": (ck / "bridges").exists()}
         calls.clear()
         fail[0] = False
         err2 = io.StringIO()
@@ -119,7 +120,7 @@ def made(tmp_path_factory):
             code2 = main(args)
     return {"table": table, "ck": ck, "code1": code1, "err1": err1.getvalue(),
             "code2": code2, "calls1": calls_first, "calls2": list(calls),
-            "bridges_after_fail": None}
+            "after_fail": after_fail}
 
 
 @pytest.fixture(scope="module")
@@ -142,7 +143,7 @@ def test_failed_phase_stops_and_rerun_recomputes_only_failed_chunks(made):
     last = made["err1"].strip().splitlines()[-1]
     assert last.startswith("capbridge: error: rupture distances: 1 of 2 chunks failed")
     assert "rerun" in last and "Traceback" not in made["err1"]
-    assert not made["table"].exists() or made["code2"] == 0
+    assert made["after_fail"] == {"table": False, "bridges": False}
     # the rerun reuses the good chunk and recomputes only the failed one
     assert made["code2"] == 0
     assert len(made["calls1"]) == 2 and made["calls2"] == made["calls1"][1:]
