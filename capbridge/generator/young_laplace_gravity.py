@@ -1,0 +1,519 @@
+"""Exact axisymmetric liquid bridge between two spheres with gravity along their axis.
+
+A vertical doublet: grain 1 (radius 1, the normalising radius) centred at x = 0, grain 2
+(radius ``ratio`` >= 1) at x = D = 1 + ratio + d*, gravity parallel to the x axis.  The
+liquid's pressure is hydrostatic, so the mean curvature of the free surface varies
+linearly with height (Young-Laplace with a hydrostatic term):
+
+    2 H(x) = P*(x) = P_m - b (x - x_m),     b = Bo (up . e_x) = -Bo g_x,
+
+with Bo = drho g r^2 / gamma, ``up`` the unit vector opposite to gravity, e_x the unit
+vector from grain 1 to grain 2, ``g_x = gravity_axis`` = +-1 the component of gravity's
+direction along e_x (-1: gravity pulls from grain 2 towards grain 1, grain 1 below) and
+P_m the pressure at the middle of the gap, x_m = 1 + d*/2.  This is the convention of the
+Surface Evolver driver (:mod:`capbridge.generator.evolver`: energy Bo int h dV with
+h = up . x, pressure = Lagrange multiplier at h = 0), whose ``pressure`` is P*(0) here.
+
+Meridian
+--------
+In arc length s from the contact line on grain 1, with psi the angle of the tangent to
+the x axis (the conventions of :mod:`capbridge.generator.young_laplace`):
+
+    dx/ds = cos psi,   dy/ds = sin psi,   dpsi/ds = cos(psi)/y - P*(x),
+
+started at x = cos b1, y = sin b1, psi = b1 + t1 - pi/2 (Young's law on grain 1).  Without
+gravity the profile is a Delaunay roulette; with it there is no closed form and the ODE
+is integrated (scipy's DOP853, ``rtol`` 1e-12) together with the quadratures carried
+along it: pi int y^2 dx (volume of revolution), pi int x y^2 dx (its first moment) and
+2 pi int y ds (area).
+
+Unknowns and residuals
+----------------------
+The chart of the zero-gravity solver: z = (P_m, b1, L), L the arc length of the meridian
+from grain 1 to grain 2.  At the end point (x_e, y_e, psi_e), with
+b2 = atan2(y_e, D - x_e):
+
+* on grain 2:        hypot(x_e - D, y_e) - ratio = 0,
+* Young on grain 2:  psi_e - (pi/2 - b2 - t2) = 0 (mod 2 pi),
+* volume:            (pi int y^2 dx - V_cap(1, b1) - V_cap(ratio, b2)) / V* - 1 = 0.
+
+The Jacobian column in L is exact (the ODE's right-hand side at the end point); the
+columns in P_m and b1 are forward differences integrated in the same call as the base
+trajectory (same steps, so their difference is smooth).  Damped Newton, started from the
+exact zero-gravity bridge (:func:`~capbridge.generator.young_laplace.solve_doublet`),
+with continuation in Bo (steps <= ``bond_step``, linear predictor, step halved on
+failure).  Every accepted step must keep the stability indicator
+-det d(angle, on-grain-2, volume)/d(P_m, b1, L) positive: it is the zero-gravity
+solver's determinant times cos(b2) > 0 on its stable branch (a change of rows, checked
+in the tests), and it vanishes where the branch ends.  A point whose zero-gravity bridge
+has ruptured, or whose continuation fails, is NOT_CONVERGED: gravity moves the rupture
+distance (either way for unequal grains), so the zero-gravity verdict is not reused.
+
+Forces and energy
+-----------------
+Force the liquid exerts on each grain along the axis (attraction positive, F* units
+F / (2 pi gamma r)): the tension of the free surface along the contact line plus the
+hydrostatic pressure over the wetted cap,
+
+    F1 = y1 cos psi1 - P*(0) y1^2/2 + b (1 - cos^3 b1)/3,
+    F2 = y2 cos psi2 - P*(D) y2^2/2 - b ratio^3 (1 - cos^3 b2)/3,
+
+(F1 pulls grain 1 towards grain 2, F2 grain 2 towards grain 1).  The grains carry the
+liquid's weight: the total force on them is Bo V* / (2 pi) along gravity, i.e.
+F2 - F1 = b V* / (2 pi) exactly; ``force`` is their mean (the capillary attraction
+proper; without gravity F1 = F2 = force).  Energy (gamma r^2 units; its derivative in
+the position of grain 2 at fixed volume is 2 pi F2, checked in the tests):
+
+    E* = A - cos t1 A_w1 - cos t2 A_w2 + b int x dV      (x from the centre of grain 1).
+
+Reference: Miot et al. (2021), Granular Matter 23:66 (Bo = 2.14 for r = 4 mm glass
+beads and water); Young-Laplace with hydrostatics e.g. Adams, Johnson, Lovell & Seville
+(2002), J. Phys. D 35, 1-10 (gravity on a vertical bridge).
+
+Supported range: as the zero-gravity solver (theta in [0, 90) deg, ratio in [1, 10])
+and 0 <= Bo <= ``BOND_MAX``.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from capbridge.dimensionless import cap_area, cap_volume, centre_distance
+from capbridge.generator.young_laplace import (RATIO_MAX, THETA_MAX_DEG, bridge_profile,
+                                               solve_doublet)
+from capbridge.status import Status
+from capbridge.validation import CapbridgeInputError, check_range
+
+#: largest Bond number accepted (issue 10 asks for 0-2.5; beyond 5 large bridges sag off
+#: the lower grain and the continuation from the zero-gravity bridge is untested)
+BOND_MAX = 5.0
+
+__all__ = ["GravitySettings", "BOND_MAX", "solve_doublet_gravity", "gravity_bridge_state"]
+
+# order of the quantities integrated along the meridian
+_X, _Y, _PSI, _VOL, _MOM, _AREA = range(6)
+_NQ = 6
+
+
+@dataclasses.dataclass(frozen=True)
+class GravitySettings:
+    """Numerical settings of the gravity solver."""
+
+    rtol: float = 1e-12       #: DOP853 relative tolerance
+    atol: float = 1e-14       #: DOP853 absolute tolerance
+    tol: float = 1e-11        #: Newton tolerance on the residuals (rad, r, relative V)
+    max_iter: int = 30        #: Newton iterations per continuation step
+    bond_step: float = 0.5    #: largest continuation step in Bo
+    fd_step: float = 1e-7     #: forward-difference step in P_m and b1 (relative)
+
+    def as_dict(self):
+        return dataclasses.asdict(self)
+
+
+# --------------------------------------------------------------------------------------
+# The meridian: ODE in arc length, k trajectories at once
+# --------------------------------------------------------------------------------------
+
+
+def _rhs(L, p_mid, b, x_mid):
+    """Right-hand side d/dt (t = s / L in [0, 1]) of the quantities of k trajectories.
+
+    ``p_mid`` (k,) are their pressures at x_mid; the state is flattened (6, k).
+    dpsi/ds = cos(psi)/y - P*(x), P*(x) = p_mid - b (x - x_mid).
+    """
+
+    def f(_t, u):
+        x, y, psi = u[_X * k:(_X + 1) * k], u[_Y * k:(_Y + 1) * k], u[_PSI * k:(_PSI + 1) * k]
+        c, s = np.cos(psi), np.sin(psi)
+        py2c = np.pi * y * y * c
+        return L * np.concatenate([c, s, c / y - (p_mid - b * (x - x_mid)), py2c, x * py2c,
+                                   2.0 * np.pi * y])
+
+    k = p_mid.size
+    return f
+
+
+def _start(beta1, theta1):
+    """(x, y, psi) of the contact line on grain 1 (Young's law there)."""
+    return np.cos(beta1), np.sin(beta1), beta1 + theta1 - 0.5 * np.pi
+
+
+def _integrate(p_mid, beta1, L, pt, settings):
+    """Integrate k meridians sharing L (arrays p_mid, beta1 of shape (k,)).
+
+    Returns (end state (6, k), min y along each meridian, ok).  ``ok`` is False when the
+    integration fails or a meridian reaches the axis (y <= 1e-9: no bridge).
+    """
+    p_mid, beta1 = np.atleast_1d(p_mid).astype(float), np.atleast_1d(beta1).astype(float)
+    k = p_mid.size
+    x0, y0, psi0 = _start(beta1, pt["theta1"])
+    u0 = np.concatenate([x0, y0, psi0, np.zeros(3 * k)])
+    if not (L > 0 and np.all(y0 > 0) and np.all(np.isfinite(u0))):
+        return np.full((_NQ, k), np.nan), np.full(k, np.nan), False
+    f = _rhs(L, p_mid, pt["b"], pt["x_mid"])
+
+    def axis(_t, u):              # a meridian reaching the axis: no bridge
+        return np.min(u[_Y * k:(_Y + 1) * k]) - 1e-9
+
+    axis.terminal = True
+    with np.errstate(all="ignore"):
+        sol = solve_ivp(f, (0.0, 1.0), u0, method="DOP853", rtol=settings.rtol,
+                        atol=settings.atol, events=axis, dense_output=True)
+    if sol.status != 0 or not np.all(np.isfinite(sol.y[:, -1])):
+        return np.full((_NQ, k), np.nan), np.full(k, np.nan), False
+    end = sol.y[:, -1].reshape(_NQ, k)
+    # the neck: the smallest y, at a zero of psi (refined on the dense output)
+    ymin = _smallest_radius(sol, k)
+    return end, ymin, True
+
+
+def _smallest_radius(sol, k):
+    """Smallest radius of each meridian: the ends or an interior minimum of y (a neck,
+    where psi crosses zero upwards), located on the dense output by a few secant steps
+    on psi."""
+    ys = sol.y[_Y * k:(_Y + 1) * k]
+    ps = sol.y[_PSI * k:(_PSI + 1) * k]
+    ymin = np.minimum(ys[:, 0], ys[:, -1])
+    for j in range(k):
+        cross = np.flatnonzero((ps[j, :-1] < 0) & (ps[j, 1:] >= 0))
+        for i in cross:
+            a, b = sol.t[i], sol.t[i + 1]
+            fa, fb = ps[j, i], ps[j, i + 1]
+            for _ in range(30):
+                c = b - fb * (b - a) / (fb - fa) if fb != fa else 0.5 * (a + b)
+                fc = sol.sol(c)[_PSI * k + j]
+                if abs(fc) < 1e-14:
+                    break
+                a, fa, b, fb = (b, fb, c, fc)
+            ymin[j] = min(ymin[j], sol.sol(c)[_Y * k + j])
+    return ymin
+
+
+# --------------------------------------------------------------------------------------
+# Residuals, Jacobian, forces
+# --------------------------------------------------------------------------------------
+
+
+def _wrap(a):
+    """Angle in (-pi, pi]."""
+    return np.pi - np.remainder(np.pi - a, 2.0 * np.pi)
+
+
+def _end_values(end, beta1, pt):
+    """Residuals (angle, on grain 2, volume) and derived end quantities of trajectories.
+
+    ``end`` is (6, k); returns a dict of (k,) arrays.
+    """
+    D, R = pt["D"], pt["ratio"]
+    xe, ye, pe = end[_X], end[_Y], end[_PSI]
+    beta2 = np.arctan2(ye, D - xe)
+    vol = end[_VOL] - cap_volume(1.0, beta1) - cap_volume(R, beta2)
+    return dict(angle=_wrap(pe - (0.5 * np.pi - beta2 - pt["theta2"])),
+                on2=np.hypot(xe - D, ye) - R,
+                volume=vol / pt["volume"] - 1.0, beta2=beta2, vol=vol)
+
+
+def _residuals(z, pt, settings, jac=True):
+    """Residuals r (3,), Jacobian J (3, 3) (columns P_m, b1, L) and the end state."""
+    pm, b1, L = z
+    if jac:
+        eps = settings.fd_step * (1.0 + np.abs(z[:2]))
+        pms = np.array([pm, pm + eps[0], pm])
+        b1s = np.array([b1, b1, b1 + eps[1]])
+    else:
+        pms, b1s = np.array([pm]), np.array([b1])
+    end, ymin, ok = _integrate(pms, b1s, L, pt, settings)
+    if not ok:
+        return None, None, None
+    v = _end_values(end, b1s, pt)
+    r = np.array([v["angle"][0], v["on2"][0], v["volume"][0]])
+    info = dict(end=end[:, 0], ymin=ymin[0], beta2=v["beta2"][0], vol=v["vol"][0])
+    if not (0.0 < b1 < 0.9 * np.pi and 0.0 < info["beta2"] < 0.9 * np.pi
+            and np.all(np.isfinite(r))):
+        return None, None, None
+    if not jac:
+        return r, None, info
+    J = np.empty((3, 3))
+    for col in range(2):
+        diff = np.array([v["angle"][col + 1] - v["angle"][0],
+                         v["on2"][col + 1] - v["on2"][0],
+                         v["volume"][col + 1] - v["volume"][0]])
+        diff[0] = _wrap(diff[0])
+        J[:, col] = diff / eps[col]
+    J[:, 2] = _d_dL(end[:, 0], pm, pt)
+    return r, J, info
+
+
+def _d_dL(e, pm, pt):
+    """Exact derivative of the residuals in L: the end point moves along the meridian."""
+    D, R = pt["D"], pt["ratio"]
+    xe, ye, pe = e[_X], e[_Y], e[_PSI]
+    c, s = np.cos(pe), np.sin(pe)
+    pres = pm - pt["b"] * (xe - pt["x_mid"])
+    rho2 = (xe - D) ** 2 + ye**2
+    # beta2 = atan2(y, D - x): d beta2 = ((D - x) dy + y dx) / rho^2
+    db2 = ((D - xe) * s + ye * c) / rho2
+    dpsi = c / ye - pres
+    d_on2 = ((xe - D) * c + ye * s) / np.sqrt(rho2)
+    # d/d beta2 of V_cap(R, b2) = pi R^3 sin^3 b2
+    dvol = np.pi * ye**2 * c - np.pi * R**3 * np.sin(np.arctan2(ye, D - xe)) ** 3 * db2
+    return np.array([dpsi + db2, d_on2, dvol / pt["volume"]])
+
+
+def _forces(z, info, pt):
+    """Axial forces on the two grains, pressures and the energy of a solved bridge."""
+    pm, b1, _ = z
+    e = info["end"]
+    b, R, D, x_mid = pt["b"], pt["ratio"], pt["D"], pt["x_mid"]
+    x1, y1, psi1 = _start(b1, pt["theta1"])
+    b2 = info["beta2"]
+    p0 = pm + b * x_mid                       # P*(x = 0), the centre of grain 1
+    pD = pm - b * (D - x_mid)                 # P*(x = D), the centre of grain 2
+    # 1 - cos^3 = (1 - cos)(1 + cos + cos^2), 1 - cos = 2 sin^2(b/2): no cancellation
+    one_c1 = 2.0 * np.sin(0.5 * b1) ** 2 * (1.0 + np.cos(b1) + np.cos(b1) ** 2)
+    one_c2 = 2.0 * np.sin(0.5 * b2) ** 2 * (1.0 + np.cos(b2) + np.cos(b2) ** 2)
+    F1 = y1 * np.cos(psi1) - 0.5 * p0 * y1**2 + b * one_c1 / 3.0
+    F2 = e[_Y] * np.cos(e[_PSI]) - 0.5 * pD * e[_Y] ** 2 - b * R**3 * one_c2 / 3.0
+    # first moment int x dV of the liquid: the body of revolution minus the two caps
+    # (cap of grain 1 beyond x = cos b1: pi sin^4 b1 / 4; cap of grain 2 about its
+    # centre: D V_cap2 - pi R^4 sin^4 b2 / 4)
+    moment = (e[_MOM] - 0.25 * np.pi * np.sin(b1) ** 4
+              - D * cap_volume(R, b2) + 0.25 * np.pi * R**4 * np.sin(b2) ** 4)
+    area = e[_AREA]
+    energy = (area - np.cos(pt["theta1"]) * cap_area(1.0, b1)
+              - np.cos(pt["theta2"]) * cap_area(R, b2) + b * moment)
+    return dict(force1=F1, force2=F2, force=0.5 * (F1 + F2), pressure=pm,
+                pressure_centre1=p0, beta1=np.degrees(b1), beta2=np.degrees(b2),
+                area=area, energy=energy, volume=info["vol"], neck_radius=info["ymin"],
+                weight=abs(b) * info["vol"] / (2.0 * np.pi))
+
+
+# --------------------------------------------------------------------------------------
+# Newton and continuation in Bo
+# --------------------------------------------------------------------------------------
+
+
+def _newton(z, pt, settings):
+    """Damped Newton on (P_m, b1, L).  Returns (z, converged, iterations, J, info)."""
+    z = np.array(z, float)
+    r, J, info = _residuals(z, pt, settings)
+    if r is None:
+        return z, False, 0, None, None
+    norm = np.max(np.abs(r))
+    for it in range(1, settings.max_iter + 1):
+        if norm < settings.tol:
+            return z, True, it - 1, J, info
+        try:
+            dz = -np.linalg.solve(J, r)
+        except np.linalg.LinAlgError:
+            return z, False, it, J, info
+        # clip: relative in P_m and L, absolute in b1 (as the zero-gravity solver)
+        cap = np.array([0.5 * (1.0 + abs(z[0])), 0.15, 0.5 * abs(z[2]) + 1e-3])
+        dz *= min(1.0, float(np.min(cap / np.maximum(np.abs(dz), 1e-300))))
+        lam, accepted = 1.0, False
+        for _ in range(14):
+            zt = z + lam * dz
+            rt, Jt, it_info = _residuals(zt, pt, settings)
+            if rt is not None:
+                nt = np.max(np.abs(rt))
+                if nt < (1.0 - 1e-4 * lam) * norm or nt < settings.tol:
+                    z, r, J, info, norm, accepted = zt, rt, Jt, it_info, nt, True
+                    break
+            lam *= 0.5
+        if not accepted:
+            # at the integrator's round-off floor a full step no longer decreases |r|
+            if norm < 1e3 * settings.tol and np.all(np.abs(dz) <= 1e-12 * (1 + np.abs(z))):
+                return z, True, it, J, info
+            return z, False, it, J, info
+    return z, norm < settings.tol, settings.max_iter, J, info
+
+
+def _indicator(J):
+    """Stability indicator: -det of the Jacobian (positive on the stable branch)."""
+    return -np.linalg.det(J)
+
+
+def _point_dict(gap, volume, theta1, theta2, ratio, bond, gravity_axis):
+    D = float(centre_distance(gap, ratio))
+    return dict(gap=float(gap), volume=float(volume), theta1=float(theta1),
+                theta2=float(theta2), ratio=float(ratio), D=D, x_mid=1.0 + 0.5 * gap,
+                b=-float(bond) * float(gravity_axis), bond=float(bond))
+
+
+def _zero_gravity_start(pt, zg):
+    """Unknowns (P_m, b1, L) of the exact zero-gravity bridge ``zg`` (one point)."""
+    h = 0.5 * float(zg["pressure"])
+    b1, b2 = np.radians(float(zg["beta1"])), np.radians(float(zg["beta2"]))
+    L = float(bridge_profile(h, b1, b2, pt["theta1"], pt["theta2"], pt["ratio"])["length"])
+    return np.array([2.0 * h, b1, L])
+
+
+def _continue_in_bond(z0, pt, settings):
+    """From the zero-gravity solution z0 to the target Bo by continuation.
+
+    Returns (z, info, J, ok, iterations, steps).
+    """
+    target = pt["b"]
+    sign = np.sign(target) if target != 0 else 1.0
+    done, z = 0.0, np.array(z0, float)
+    prev = None                                  # (|b|, z) of the step before
+    step = min(abs(target), settings.bond_step)
+    iters, steps = 0, 0
+    p = dict(pt, b=0.0)
+    # polish at Bo = 0 (the ODE and the roulette agree to ~1e-11: one or two steps)
+    z, ok, it, J, info = _newton(z, p, settings)
+    iters += it
+    if not ok or _indicator(J) <= 0:
+        return z, info, J, False, iters, steps
+    while done < abs(target):
+        nxt = min(done + step, abs(target))
+        zp = z if prev is None else z + (z - prev[1]) * (nxt - done) / (done - prev[0])
+        p = dict(pt, b=sign * nxt)
+        zn, ok, it, Jn, info_n = _newton(zp, p, settings)
+        iters += it
+        steps += 1
+        ok = ok and _indicator(Jn) > 0
+        # stay on the branch: the corrector must not jump far from the predictor
+        if ok:
+            ok = bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp))))
+        if ok:
+            prev = (done, z)
+            done, z, J, info = nxt, zn, Jn, info_n
+            step = min(1.5 * step, settings.bond_step)
+        else:
+            step *= 0.5
+            if step < 1e-4 * max(1.0, abs(target)):
+                return z, info, J, False, iters, steps
+    return z, info, J, True, iters, steps
+
+
+# --------------------------------------------------------------------------------------
+# Public solver
+# --------------------------------------------------------------------------------------
+
+_KEYS = ("force", "force1", "force2", "weight", "pressure", "pressure_centre1", "beta1",
+         "beta2", "neck_radius", "area", "energy", "volume", "gap", "bond", "indicator")
+
+
+def _check_gravity_axis(gravity_axis):
+    g = np.asarray(gravity_axis, dtype=float)
+    bad = ~np.isin(g, (-1.0, 1.0))
+    if np.any(bad):
+        first = g[bad].flat[0] if g.ndim else float(g)
+        raise CapbridgeInputError(
+            f"gravity_axis={first!r} is not allowed: -1 (gravity from grain 2 towards "
+            "grain 1, grain 1 below) or +1 (grain 1 above)")
+    return g
+
+
+def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
+                          gravity_axis=-1.0, settings=None):
+    """Liquid bridge of given volume between two spheres, gravity along their axis.
+
+    Parameters
+    ----------
+    gap : array_like
+        Gap between the sphere surfaces d* = d / R1 [-], >= 0.
+    volume : array_like
+        Liquid volume V* = V / R1^3 [-], > 0.
+    theta : array_like
+        Contact angle on sphere 1 [deg], in [0, 90).
+    bond : array_like
+        Bond number Bo = drho g R1^2 / gamma [-], in [0, BOND_MAX].
+    ratio : array_like, default 1
+        Radius ratio R2 / R1 in [1, 10].
+    theta2 : array_like, optional
+        Contact angle on sphere 2 [deg]; defaults to ``theta``.
+    gravity_axis : array_like of -1 or +1, default -1
+        Component of gravity's direction along the axis from grain 1 to grain 2: -1 when
+        grain 1 is below grain 2, +1 when it is above.
+    settings : GravitySettings, optional
+
+    Returns
+    -------
+    dict of arrays broadcast to the inputs' shape:
+        force1, force2 : F* on grain 1 (towards grain 2) and on grain 2 (towards grain
+            1), attraction > 0; force2 - force1 = -gravity_axis Bo V* / (2 pi).
+        force : their mean [-];  weight : Bo V* / (2 pi) [-].
+        pressure : P* at the middle of the gap x = 1 + d*/2 [-];
+        pressure_centre1 : P* at the height of the centre of grain 1 [-].
+        beta1, beta2 : half filling angles [deg].
+        neck_radius, area, volume, gap, bond : [-].
+        energy : E* = A - cos t1 A_w1 - cos t2 A_w2 + b int x dV (x from the centre of
+            grain 1) [-].
+        indicator : stability indicator (> 0 on the stable branch).
+        status : capbridge.status.Status (CONVERGED or NOT_CONVERGED; see the module
+            docstring), iterations, steps (continuation steps in Bo).
+
+    Examples
+    --------
+    The grains share the liquid's weight; the lower one carries less attraction:
+
+    >>> r = solve_doublet_gravity(0.1, 0.05, 30.0, 2.14)
+    >>> bool(r["force1"] < r["force"] < r["force2"])
+    True
+    """
+    settings = settings or GravitySettings()
+    gap = check_range("gap d*", gap, 0.0, np.inf,
+                      hint="d* is the gap between the sphere surfaces; "
+                           "overlapping grains are not supported")
+    volume = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
+    theta = check_range("theta", theta, 0.0, THETA_MAX_DEG, high_open=True, units=" deg",
+                        hint="contact angles are supported in [0, 90) degrees")
+    theta2 = theta if theta2 is None else check_range(
+        "theta2", theta2, 0.0, THETA_MAX_DEG, high_open=True, units=" deg",
+        hint="contact angles are supported in [0, 90) degrees")
+    ratio = check_range("ratio", ratio, 1.0, RATIO_MAX,
+                        hint="ratio = R2/R1 with R1 the smaller (normalising) radius")
+    bond = check_range("Bond number Bo", bond, 0.0, BOND_MAX,
+                       hint="Bo = drho g R1^2 / gamma")
+    g_axis = _check_gravity_axis(gravity_axis)
+    arrays = np.broadcast_arrays(gap, volume, theta, theta2, ratio, bond, g_axis)
+    shape = arrays[0].shape
+    d, v, t1, t2, R, bo, ga = (np.ravel(a).astype(float) for a in arrays)
+    n = d.size
+    out = {k: np.full(n, np.nan) for k in _KEYS}
+    out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
+    out["iterations"] = np.zeros(n, np.int16)
+    out["steps"] = np.zeros(n, np.int16)
+    out["gap"], out["volume"], out["bond"] = d.copy(), v.copy(), bo.copy()
+    zg = solve_doublet(d, v, t1, R, t2)           # the zero-gravity starts, vectorised
+    for i in range(n):
+        if zg["status"][i] != Status.CONVERGED:
+            continue                               # ruptured without gravity: not reused
+        pt = _point_dict(d[i], v[i], np.radians(t1[i]), np.radians(t2[i]), R[i], bo[i],
+                         ga[i])
+        z0 = _zero_gravity_start(pt, {k: zg[k][i] for k in ("pressure", "beta1", "beta2")})
+        if not np.all(np.isfinite(z0)):
+            continue
+        z, info, J, ok, iters, steps = _continue_in_bond(z0, pt, settings)
+        out["iterations"][i], out["steps"][i] = iters, steps
+        if not ok:
+            continue
+        res = _forces(z, info, pt)
+        for k, val in res.items():
+            out[k][i] = val
+        out["indicator"][i] = _indicator(J)
+        out["status"][i] = Status.CONVERGED
+    return {k: val.reshape(shape) for k, val in out.items()}
+
+
+def gravity_bridge_state(gap, volume, theta, bond, z, ratio=1.0, theta2=None,
+                         gravity_axis=-1.0, settings=None):
+    """Residuals and forces of the profile with unknowns ``z`` = (P_m, b1 [rad], L).
+
+    For diagnostics and tests (one point): returns a dict with ``residuals`` (angle on
+    grain 2 [rad], distance of the end point from grain 2, relative volume misfit) and
+    the quantities of :func:`solve_doublet_gravity` for that profile (an equilibrium
+    only where the residuals vanish).
+    """
+    settings = settings or GravitySettings()
+    theta2 = theta if theta2 is None else theta2
+    pt = _point_dict(gap, volume, np.radians(theta), np.radians(theta2), ratio, bond,
+                     float(_check_gravity_axis(gravity_axis)))
+    r, _, info = _residuals(np.asarray(z, float), pt, settings, jac=False)
+    if r is None:
+        raise CapbridgeInputError(f"z={list(z)} does not give a profile ending on grain 2")
+    return dict(_forces(np.asarray(z, float), info, pt), residuals=r)
