@@ -57,6 +57,7 @@ import argparse
 import dataclasses
 import functools
 import itertools
+import json
 import shlex
 import sys
 import time
@@ -231,8 +232,6 @@ def _separated_one(geom, theta, bridges, V, n_scan):
                       "forces": np.full((3, 3), np.nan), "bridge": {},
                       "pressure_stable": {b: False for b in bridges}}
     vols, P, _ = fam.evaluate([Vk * (1 - 1e-6), Vk, Vk * (1 + 1e-6)])
-    if fam.n == 1:
-        vols = np.array([[V * (1 - 1e-6), V, V * (1 + 1e-6)]])
     v = vols[:, 1]
     # the final state: every bridge solved at its own volume (same convention and
     # solver as uncoalesced_state), so that the pressures are an independent check
@@ -324,11 +323,9 @@ def lowest_separated_energy(d12, d13, d23, volume, theta, n_scan=24):
         NOT_CONVERGED if none exists but a solve failed), ``candidates`` {name:
         (energy, status)} for every configuration tried, ``state`` the lowest state.
 
-    Examples
-    --------
-    >>> r = lowest_separated_energy(0.175, 0.175, 0.075, 0.2, 0.0)
-    >>> r["configuration"], r["status"]
-    ('12,13,23', 0)
+    On the paper's triplet (gaps 0.175, 0.175, 0.075) at V* = 0.2, theta = 0 the two
+    bridges on a bottom grain (using the narrow bottom gap) are lowest
+    (tests/test_triplet_coalescence.py).
     """
     V = float(check_range("total volume V*", volume, 0.0, np.inf, low_open=True))
     cands, states = {}, {}
@@ -584,7 +581,7 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
         attrs={"title": "capbridge coalescence volumes of three equal spheres (exact "
                         "Young-Laplace doublets, equal volume shares, no gravity)",
                "normalising_radius": "r, the radius of the three equal spheres",
-               "grid": _json(grid.as_dict()),
+               "coalescence_grid": _json(grid.as_dict()),
                "capbridge_command": command or _this_command(),
                "configurations": _json({c: [_bridge_name(b) for b in
                                             COALESCENCE_CONFIGURATIONS[c]]
@@ -657,7 +654,6 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
 
 
 def _json(obj):
-    import json
     return json.dumps(obj, sort_keys=True)
 
 
@@ -675,19 +671,17 @@ def _this_command():
 def save_coalescence_table(ds, path, command=None, overwrite=False):
     """Write the coalescence table with CF attributes and provenance.
 
-    ``command`` is recorded in the file (default: the table's ``capbridge_command``);
-    an existing ``path`` is only replaced with ``overwrite=True``
-    (:class:`CapbridgeInputError` otherwise).
+    ``command`` is recorded in the file (default: the table's ``capbridge_command``).
+    As for every capbridge table (:func:`~capbridge.generator.netcdf_io.write_table`),
+    an existing file is replaced only if it is a table of the same grid, or with
+    ``overwrite=True`` (:class:`~capbridge.generator.netcdf_io.TableExistsError`
+    otherwise).
     """
-    path = Path(path)
-    if path.exists() and not overwrite:
-        raise CapbridgeInputError(f"output {path} exists; give --force (overwrite=True) "
-                                  "to replace it")
     grid = CoalescenceGrid(**{k: tuple(v) if isinstance(v, list) else v for k, v in
-                              __import__("json").loads(ds.attrs["grid"]).items()})
+                              json.loads(ds.attrs["coalescence_grid"]).items()})
     return write_table(ds, path, command=command or ds.attrs.get("capbridge_command",
                                                                  _this_command()),
-                       solver_settings=_settings(grid))
+                       solver_settings=_settings(grid), overwrite=overwrite)
 
 
 # --------------------------------------------------------------------------------------
@@ -699,33 +693,51 @@ def add_arguments(p):
     """Options of ``capbridge generate coalescence`` on an argparse parser."""
     p.add_argument("--quick", action="store_true", help="tiny grid (tests)")
     p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
-    p.add_argument("--scheduler", default=None, help="Dask scheduler address")
+    p.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
     p.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
     p.add_argument("--output", default=None,
                    help="netCDF file (default data/triplet_coalescence.nc, "
                         "or triplet_coalescence_quick.nc with --quick)")
-    p.add_argument("--force", action="store_true", help="replace an existing output file")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing --output of another grid")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
 
 
+def _table_grid(grid):
+    """Dimension coordinates of the table ``grid`` makes (for the target check)."""
+    axes = {a: list(map(float, grid.gaps)) for a in ("d12", "d13", "d23")}
+    axes["theta"] = list(map(float, grid.theta))
+    for c in grid.configurations:
+        axes[f"heldout_{c}"] = list(range(grid.n_heldout))
+    return axes
+
+
 def run_from_args(args, command=None):
-    """Build and write the table from parsed :func:`add_arguments` options; exit code."""
-    out = Path(args.output or ("triplet_coalescence_quick.nc" if args.quick
-                               else "data/triplet_coalescence.nc"))
-    if out.exists() and not args.force:
-        raise CapbridgeInputError(f"output {out} exists; give --force to replace it")
+    """Build and write the table from parsed :func:`add_arguments` options.
+
+    The output is checked before computing (directory, and no other file or table of
+    another grid replaced without ``--overwrite``).  Returns the exit code (1 if some
+    chunks failed: rerun with the same ``--checkpoint-dir`` to retry them).
+    """
+    from capbridge.generator.netcdf_io import check_table_target
+
     if args.jobs is not None and args.jobs < 1:
         raise CapbridgeInputError(f"--jobs={args.jobs} is outside the allowed range [1, inf)")
+    grid = CoalescenceGrid.shipped(quick=args.quick)
+    out = Path(args.output or ("triplet_coalescence_quick.nc" if args.quick
+                               else "data/triplet_coalescence.nc"))
+    check_table_target(out, _table_grid(grid), overwrite=args.overwrite, flag="--overwrite")
     command = command or _this_command()
-    ds = build_coalescence_table(CoalescenceGrid.shipped(quick=args.quick),
-                                 checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
+    t0 = time.perf_counter()
+    ds = build_coalescence_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                                  scheduler=args.scheduler, progress=not args.no_progress,
                                  command=command)
-    save_coalescence_table(ds, out, command=command, overwrite=args.force)
+    ds.attrs["wall_seconds_of_this_run"] = round(time.perf_counter() - t0, 1)
+    save_coalescence_table(ds, out, command=command, overwrite=args.overwrite)
     bad = int(ds.attrs["n_failed_chunks"])
     print(f"wrote {out}" + (f" ({bad} failed chunks: rerun to retry)" if bad else ""))
-    for c in CoalescenceGrid.shipped(quick=args.quick).configurations:
+    for c in grid.configurations:
         print(f"{c}: CPU s per point {ds.attrs[f'cpu_seconds_per_point_{c}']}")
         print(f"{c}: interpolation error {ds.attrs[f'interpolation_error_{c}']}")
     return 1 if bad else 0
