@@ -785,14 +785,13 @@ class BridgeModel:
         # formations at contact
         n_form = 0
         if form and self.cand.i.size:
-            dc = pos[self.cand.j]
-            dc -= pos[self.cand.i]
-            new = np.einsum("ij,ij->i", dc, dc) <= self.cand.reach2
-            new &= ~self.cand.has_bridge
-            new &= ~self.cand.refused            # no retry until a film has grown
-            if new.any():
+            # only pairs without a bridge, and not refused (no retry until a film grows)
+            idx = np.flatnonzero(~(self.cand.has_bridge | self.cand.refused))
+            dc = pos[self.cand.j[idx]]
+            dc -= pos[self.cand.i[idx]]
+            idx = idx[np.einsum("ij,ij->i", dc, dc) <= self.cand.reach2[idx]]
+            if idx.size:
                 n0 = self.n_bridges
-                idx = np.flatnonzero(new)
                 n_form, refused = self._form(self.cand.i[idx], self.cand.j[idx], step)
                 self.cand.refused[idx[refused]] = True
                 if n_form:
@@ -823,7 +822,7 @@ class BridgeModel:
         return {"d": d, "dist": dist, "gap": gap, "force": force, "ruptured": n_rupt,
                 "formed": n_form}
 
-    def grain_forces(self, geom, tolerance=0.0):
+    def grain_forces(self, geom, tolerance=0.0, list_changed=True):
         """Bridge forces summed on the grains, for the DEM.
 
         Returns ``(forces, changed)``: ``forces`` (n, 3) [N] (attraction: grain i is
@@ -833,7 +832,8 @@ class BridgeModel:
         out (:attr:`held`) until the new one differs from it by more than
         ``tolerance`` times its magnitude; the sums use the held vectors, so action
         and reaction stay exactly opposite and only grains of updated (or ruptured)
-        bridges are listed as changed.
+        bridges are listed as changed.  ``list_changed=False``: ``changed`` is None
+        (not needed when every force is handed out every step).
         """
         fv = geom["d"] * (geom["force"] / geom["dist"])[:, None]
         if tolerance > 0.0 and self.held.shape[0] == fv.shape[0]:
@@ -844,14 +844,18 @@ class BridgeModel:
         else:
             self.held = fv
             changed = None
-        h = self.held
-        out = np.empty((self.n, 3))
-        for k in range(3):
-            out[:, k] = (np.bincount(self.bi, h[:, k], minlength=self.n)
-                         - np.bincount(self.bj, h[:, k], minlength=self.n))
-        if changed is None:
+        out = self.held_grain_forces()
+        if changed is None and list_changed:
             changed = np.unique(np.concatenate([self.bi, self.bj, self._touched]))
         return out, changed
+
+    def held_grain_forces(self):
+        """(n, 3) sums on the grains of the force vectors last handed out [N]."""
+        h = self.held.ravel()
+        xyz = np.arange(3)
+        on_i = np.bincount((3 * self.bi[:, None] + xyz).ravel(), h, minlength=3 * self.n)
+        on_j = np.bincount((3 * self.bj[:, None] + xyz).ravel(), h, minlength=3 * self.n)
+        return (on_i - on_j).reshape(self.n, 3)
 
     def filling_angles(self, gap):
         """Half filling angles [deg] of each bridge on its grains bi and bj."""

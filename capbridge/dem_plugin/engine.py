@@ -592,7 +592,7 @@ class CapbridgeEngine:
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
         self.events["ruptured"] += geom["ruptured"]
-        forces, changed = self.model.grain_forces(geom, self.force_tolerance)
+        forces, changed = self.model.grain_forces(geom, self.force_tolerance, self.holds_forces)
         self._apply(forces, changed, O)
         self._last_geom = geom
         if self.coalescence and (self._coal_summary["checks"] == 0
