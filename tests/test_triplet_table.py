@@ -129,7 +129,9 @@ def test_shipped_points_resolved_by_evolver(table):
         geom = triplet_geometry(p["d12"], p["d13"], p["d23"])
         r = evolver_triplet(float(row["volume"]), geom, p["theta"], "coalesced",
                             max_refine=plan.max_refine, tol=plan.ftol, etol=plan.etol,
-                            inspect_mesh=False, workers=1, retry_rings=plan.retry_rings)
+                            flag_above_tolerance=True, inspect_mesh=False, workers=1,
+                            retry_rings=plan.retry_rings)
+        assert r["status_code"] == int(row["status"])
         err = float(row["force_error"])
         for key, name in zip(("12", "13", "23"), PAIR_NAMES):
             assert r["pair_forces"][key] == pytest.approx(float(row[name]),

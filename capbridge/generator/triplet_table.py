@@ -226,7 +226,8 @@ def coalesced_chunk(d12, d13, d23, theta, volume, *, plan):
         geom = triplet_geometry(d12[n], d13[n], d23[n])
         r = evolver_triplet(float(volume[n]), geom, float(theta[n]), "coalesced",
                             max_refine=plan.max_refine, tol=plan.ftol, inspect_mesh=False,
-                            etol=plan.etol, workers=1, retry_rings=plan.retry_rings,
+                            etol=plan.etol, flag_above_tolerance=True, workers=1,
+                            retry_rings=plan.retry_rings,
                             level_timeout=plan.level_timeout,
                             total_timeout=plan.total_timeout)
         st = Status(r["status_code"])
