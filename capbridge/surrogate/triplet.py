@@ -1,0 +1,980 @@
+"""Fast coalesced-triplet lookup: interpolation in a capbridge triplet table.
+
+One liquid body wetting three equal spheres (radius r; lengths / r, V* = V/r^3,
+F* = F/(2 pi gamma r), P* = dp r/gamma, E* = E/(gamma r^2), angles in degrees) is
+tabulated by :mod:`capbridge.generator.triplet_table` on a full cube of the three gaps
+(d12, d13, d23), the contact angle theta and the volume ratio v = V*/V*_coal, where
+V*_coal(d12, d13, d23, theta) is the exact coalescence volume of the two bridges on the
+grain shared by the two smallest gaps.  :class:`TripletSurrogate` follows
+:class:`~capbridge.surrogate.doublet.DoubletSurrogate`:
+
+* ``fit`` refines the coarse table once to a fine grid by splines along each axis
+  (cubic where the axis has >= 4 nodes, quadratic with 3; ``method="linear"`` keeps
+  the raw grid), in the physical coordinates (gaps, theta, v);
+* ``predict`` is then a multilinear lookup on that grid: V*_coal first (4-D), then
+  v = V*/V*_coal, then the pair forces, P* and E* (5-D), with precomputed strides and
+  no search (a linear index map on the non-uniform v axis).
+
+Permutation symmetry (relabelling the grains permutes the pair forces) holds exactly:
+the table is the full cube of relabelled copies, every gap axis is refined by the same
+operator, and multilinear weights permute with the gaps.
+
+Statuses (:class:`~capbridge.status.Status`) per point, from the table nodes of the
+coarse cell the point falls in:
+
+* a node without an equilibrium of the coalesced body (failure kind ``no_equilibrium``)
+  -> ``NO_EQUILIBRIUM``, no number (the body's existence boundary crosses the cell:
+  the separate bridges apply);
+* any other failed node -> ``NOT_CONVERGED``, no number;
+* a node above the Evolver tolerance -> ``ABOVE_TOLERANCE``, with the number;
+* otherwise ``CONVERGED``;
+* v above the table with ``out_of_range="clip"`` -> ``EXTRAPOLATED`` (answered at
+  the table's largest v: the same coalesced body with less liquid); v below the table
+  with ``"clip"`` -> ``NO_EQUILIBRIUM`` if the table has no equilibrium at its lowest
+  v there (less liquid cannot hold it together either), else ``OUT_OF_RANGE`` (no
+  number);
+* unequal radii (:meth:`TripletSurrogate.predict_vectors` with ``radii``) ->
+  ``APPROXIMATE`` where the equal-sphere answer was a result.
+
+Gaps and theta outside the table are always errors (another geometry or angle is
+another body: use Surface Evolver, ``capbridge solve triplet``); so is bad input
+(negative or NaN gaps, centres that do not form a triangle, theta outside [0, 90),
+V* <= 0): one :class:`~capbridge.validation.CapbridgeInputError` line naming the value
+and the allowed range.
+
+Unequal radii (documented approximation, status ``APPROXIMATE``)
+-----------------------------------------------------------------
+Each pair force f_ij is taken from the equal-sphere table scaled by the pair's
+Derjaguin radius R_ij = 2 R_i R_j / (R_i + R_j): the triplet is looked up with all
+its gaps and its volume normalised by R_ij (d/R_ij, V/R_ij^3) and
+F_ij = 2 pi gamma R_ij f*_ij.  For a doublet R_ij is the radius that makes the
+contact force 2 pi gamma R cos(theta) exact (Derjaguin) and carries the gap and
+volume dependence of the pendular bridge to first order; in the coalesced body each
+pair force is dominated by the liquid near its own contact.  Measured against Surface
+Evolver (level 3, the table's settings) on the triplets of ``benchmarks/bench_triplet.py``
+(radii ratios up to 2; figures in ``benchmarks/RESULTS.md``, "Triplet surrogate"):
+see :data:`UNEQUAL_RADII_ERROR`.
+
+References
+----------
+Miot et al. (2021), Granular Matter 23:66 (coalesced triplets, Eq. 8 for the linear law
+V_coal = V0 + (theta/90 deg) dV); Derjaguin (1934) for the effective radius.
+"""
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import xarray as xr
+
+from capbridge.status import Status
+from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, _refine_axis
+from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
+
+__all__ = ["TripletSurrogate", "holdout_errors", "LOWER_ENERGY_STATES", "PAIR_NAMES",
+           "UNEQUAL_RADII_ERROR", "default_table"]
+
+PAIR_NAMES = ("f12", "f13", "f23")
+#: pairs (0-based grains) in the order of PAIR_NAMES
+PAIRS = ((0, 1), (0, 2), (1, 2))
+#: values interpolated on the 5-D grid, in this order
+GRID_VARIABLES = ("f12", "f13", "f23", "pressure", "energy")
+
+#: codes of ``lower_energy_state``
+LOWER_ENERGY_STATES = {
+    0: "coalesced",      # E_coalesced < E_separated by more than their error estimates
+    1: "separated",      # E_separated < E_coalesced by more than their error estimates
+    2: "undecided",      # |E_coalesced - E_separated| within the energy error estimate
+    3: "unknown",        # no separated-state energy in the fit inputs (or no result here)
+}
+_UNKNOWN = 3
+
+#: errors of the unequal-radii approximation against Surface Evolver (relative, f_ij),
+#: filled from benchmarks/bench_triplet.py (see the module docstring)
+UNEQUAL_RADII_ERROR = {"median": None, "max": None, "n_triplets": 0,
+                       "source": "benchmarks/RESULTS.md, Triplet surrogate"}
+
+#: default fine-grid nodes per table interval: gaps, theta, v (chosen from the
+#: refinement error measured by benchmarks/bench_triplet.py)
+DEFAULT_REFINE = (4, 4, 6)
+MAX_REFINE = 16
+#: memory bound of the fine grid (values), bytes
+MAX_GRID_BYTES = 400e6
+
+_TOL = 1e-12          # relative slack at the table's edges (round-off, not range)
+
+
+def default_table():
+    """``data/triplet_table.nc`` of this checkout."""
+    from pathlib import Path
+
+    return Path(__file__).resolve().parents[2] / "data" / "triplet_table.nc"
+
+
+# --------------------------------------------------------------------------------------
+# fine axes and grids
+# --------------------------------------------------------------------------------------
+
+
+class _FineAxis:
+    """Fine axis made of ``refine`` equal steps per coarse interval.
+
+    ``locate(x)`` returns the fine interval index i, the weight of node i+1 and the
+    coarse interval; uniform coarse axes by arithmetic, others by one linear index
+    map (np.interp on the few coarse nodes), never a search on the fine grid.
+    """
+
+    def __init__(self, coarse, refine):
+        self.coarse = np.asarray(coarse, float)
+        self.refine = int(refine)
+        m = self.coarse.size
+        self.n = (m - 1) * self.refine + 1
+        u = np.arange(self.n) / self.refine                 # coarse index coordinate
+        j = np.minimum(np.floor(u).astype(int), m - 2)
+        self.nodes = self.coarse[j] + (u - j) * (self.coarse[j + 1] - self.coarse[j])
+        self.nodes[-1] = self.coarse[-1]
+        steps = np.diff(self.coarse)
+        self.uniform = bool(np.allclose(steps, steps[0], rtol=1e-9, atol=0))
+        self.lo, self.hi = float(self.coarse[0]), float(self.coarse[-1])
+        self._scale = self.refine / steps[0]
+        self._index = np.arange(m, dtype=float) * self.refine
+
+    def locate(self, x):
+        if self.uniform:
+            u = (x - self.lo) * self._scale
+        else:
+            u = np.interp(x, self.coarse, self._index)
+        i = np.minimum(np.maximum(u.astype(np.intp), 0), self.n - 2)
+        return i, u - i
+
+
+def _refine(values, axes, fine_axes, method):
+    """Values on the coarse axes (leading dims) -> values on the fine axes.
+
+    Splines along each axis in turn (cubic with >= 4 nodes, else the highest degree the
+    nodes allow), in the physical coordinate; ``method="linear"`` gives the raw grid
+    (fine axes then coincide with the coarse ones).
+    """
+    out = values
+    if method == "linear":
+        return np.ascontiguousarray(out)
+    for a, (c, f) in enumerate(zip(axes, fine_axes)):
+        if len(c) > 1 and f.refine > 1:
+            out = _refine_axis(out, a, c, f.nodes)
+    return np.ascontiguousarray(out)
+
+
+def _corner_offsets(strides):
+    """Flat offsets of the 2^k corners of a cell, ordered as :func:`_corner_weights`."""
+    offs = np.zeros(1, np.intp)
+    for s in strides:
+        offs = np.concatenate([offs, offs + s])
+    return offs
+
+
+def _corner_weights(fracs):
+    """(n, 2^k) multilinear weights, corner order of :func:`_corner_offsets`."""
+    w = np.ones((fracs[0].size, 1))
+    for f in fracs:
+        f = f[:, None]
+        w = np.concatenate([w * (1.0 - f), w * f], axis=1)
+    return w
+
+
+class _Grid:
+    """Values on a fine grid (shape..., nvar) and the gather that interpolates them.
+
+    ``kernel="simplex"``: piecewise-linear on the Kuhn (Freudenthal) simplices of each
+    cell: the k + 1 corners reached from the cell's base by stepping along the axes in
+    the order of decreasing fractional position, weights the differences of the sorted
+    fractions.  It is exact at the nodes, continuous, invariant under permutations of
+    the axes (the triangulation is), and needs k + 1 corners instead of the 2^k of
+    ``"multilinear"`` (6 against 32 in 5-D): that is what makes >= 1e6 lookups/s
+    possible.  Both kernels are second order in the fine step; on the refined grid their
+    difference is part of the measured refinement error.
+    """
+
+    def __init__(self, values, kernel="simplex"):
+        self.shape = values.shape[:-1]
+        self.nvar = values.shape[-1]
+        self.flat = np.ascontiguousarray(values.reshape(-1, self.nvar))
+        st = np.cumprod((1,) + self.shape[::-1])[:-1][::-1]
+        self.strides = st.astype(np.intp)
+        self.offsets = _corner_offsets(self.strides)
+        self.kernel = kernel
+
+    def __call__(self, index, fracs):
+        base = index[0] * self.strides[0]
+        for i, s in zip(index[1:], self.strides[1:]):
+            base = base + i * s
+        if self.kernel == "multilinear":
+            w = _corner_weights(fracs)
+            vals = self.flat[base[:, None] + self.offsets]            # (n, 2^k, nvar)
+            return np.einsum("nc,ncv->nv", w, vals)
+        # sort the fractions in decreasing order, carrying the strides along
+        # (a sorting network: a few whole-array compare-exchanges, no per-row sort)
+        f = list(fracs)
+        st = [np.full(f[0].shape, s, np.intp) for s in self.strides[:len(f)]]
+        for i, j in _SORTING_NETWORKS[len(f)]:
+            swap = f[i] < f[j]
+            f[i], f[j] = np.where(swap, f[j], f[i]), np.where(swap, f[i], f[j])
+            st[i], st[j] = np.where(swap, st[j], st[i]), np.where(swap, st[i], st[j])
+        idx = base
+        out = np.take(self.flat, idx, axis=0) * (1.0 - f[0])[:, None]
+        k = len(f)
+        for m in range(k):
+            idx = idx + st[m]
+            w = (f[m] - f[m + 1]) if m + 1 < k else f[m]
+            out += np.take(self.flat, idx, axis=0) * w[:, None]
+        return out
+
+
+#: compare-exchange networks that sort k values (Knuth, TAOCP 5.3.4; optimal for k <= 5)
+_SORTING_NETWORKS = {
+    1: [],
+    2: [(0, 1)],
+    3: [(0, 1), (1, 2), (0, 1)],
+    4: [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)],
+    5: [(0, 1), (3, 4), (2, 4), (2, 3), (0, 3), (0, 2), (1, 4), (1, 3), (1, 2)],
+}
+
+
+def _cell_max(node_codes):
+    """Largest code over the 2^k corners of every coarse cell."""
+    c = node_codes
+    for a in range(c.ndim):
+        lo = [slice(None)] * c.ndim
+        hi = [slice(None)] * c.ndim
+        lo[a], hi[a] = slice(0, -1), slice(1, None)
+        c = np.maximum(c[tuple(lo)], c[tuple(hi)])
+    return c
+
+
+def _fill_failed(values, ok, axis_order):
+    """Placeholder values at failed nodes, so that splines through the cube stay finite.
+
+    Along each axis in ``axis_order`` (label-free axes only: theta and v, so the fill
+    keeps the permutation symmetry), failed nodes get the linear interpolation or
+    extrapolation of the valid nodes of their line; what is left gets the mean of the
+    valid values.  Cells touching a failed node carry no number (their status says
+    why), so the fill only shapes the splines in the neighbouring cells.
+    """
+    v = np.array(values, float)
+    good = np.array(ok, bool)
+    for a in axis_order:
+        vm, gm = np.moveaxis(v, a, -1), np.moveaxis(good, a, -1)
+        n = vm.shape[-1]
+        x = np.arange(n, dtype=float)
+        for idx in np.ndindex(vm.shape[:-1]):
+            g = gm[idx]
+            if g.all() or g.sum() == 0:
+                continue
+            xs, ys = x[g], vm[idx][g]
+            if xs.size == 1:
+                fill = np.full(n, ys[0])
+            else:
+                fill = np.interp(x, xs, ys)
+                lo, hi = x < xs[0], x > xs[-1]
+                fill[lo] = ys[0] + (x[lo] - xs[0]) * (ys[1] - ys[0]) / (xs[1] - xs[0])
+                fill[hi] = ys[-1] + (x[hi] - xs[-1]) * (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
+            row = vm[idx]
+            row[~g] = fill[~g]
+            gm[idx] = True
+    if not good.all():
+        v[~good] = np.nanmean(values[ok]) if ok.any() else 0.0
+    return v
+
+
+# --------------------------------------------------------------------------------------
+# the surrogate
+# --------------------------------------------------------------------------------------
+
+
+def _relabellings():
+    """For each relabelling p of the grains (new grain k = old grain p[k]): the old pair
+    of every new pair, as indices into PAIRS (the gap axes permute the same way)."""
+    out = []
+    for p in itertools.permutations(range(3)):
+        out.append([PAIRS.index(tuple(sorted((p[i], p[j])))) for i, j in PAIRS])
+    return out
+
+
+def _symmetrise(pair_values, scalar_values, codes):
+    """Average a full cube over the 6 relabellings of the grains.
+
+    The table stores every relabelled copy of each canonical point, so away from
+    ties (two equal gaps) the average changes nothing; at ties it averages the Evolver
+    noise between pair forces that are equal by symmetry (f12 = f13 at d12 = d13), so
+    that the surrogate is exactly equivariant.  ``pair_values`` (3, g, g, g, ...),
+    ``scalar_values`` (m, g, g, g, ...), ``codes`` (g, g, g, ...) -> same shapes
+    (codes: the largest over the relabellings).
+    """
+    nd = pair_values.ndim - 1
+    rest = tuple(range(3, nd))
+    f = np.zeros_like(pair_values)
+    sc = np.zeros_like(scalar_values)
+    cd = codes.copy()
+    perms = _relabellings()
+    for q in perms:
+        axes = tuple(q) + rest          # new gap axis m is old gap axis q[m]
+        for m in range(3):
+            f[m] += np.transpose(pair_values[q[m]], axes)
+        sc += np.stack([np.transpose(x, axes) for x in scalar_values])
+        cd = np.maximum(cd, np.transpose(codes, axes))
+    return f / len(perms), sc / len(perms), cd
+
+
+class TripletSurrogate:
+    """Interpolating surrogate of a coalesced-triplet table (fit / predict).
+
+    Parameters
+    ----------
+    method : {"cubic", "linear"}
+        ``"cubic"`` (default): splines along each table axis (cubic with >= 4 nodes,
+        quadratic with 3) evaluated once on a fine grid, multilinear lookup on it;
+        ``"linear"``: multilinear on the raw table grid (32 corners per lookup, slower).
+        The fine grid is read by the simplex kernel (:class:`_Grid`).  Held-out errors of both:
+        ``benchmarks/RESULTS.md``, "Triplet surrogate".
+    refine : int or (int, int, int)
+        Fine-grid steps per table interval along the gaps, theta and v (default
+        :data:`DEFAULT_REFINE`); ignored for ``method="linear"``.
+    out_of_range : {"raise", "clip"}
+        V* outside the table's range of v = V*/V*_coal: ``"raise"`` (default) a
+        CapbridgeInputError naming the value and the range; ``"clip"`` answers above
+        the range at its edge (status EXTRAPOLATED) and below it with no number
+        (NO_EQUILIBRIUM where the table has no equilibrium at its lowest v,
+        OUT_OF_RANGE elsewhere).  Gaps and theta outside the table are always errors.
+    clip_hint : str
+        How the user turns clipping on, named in messages (the CLI passes ``"--clip"``).
+    """
+
+    def __init__(self, method="cubic", refine=DEFAULT_REFINE, out_of_range="raise",
+                 clip_hint="out_of_range='clip'"):
+        check_choice("method", method, ("cubic", "linear"))
+        check_choice("out_of_range", out_of_range, ("raise", "clip"))
+        r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
+        if len(r) != 3:
+            raise CapbridgeInputError(f"refine={refine!r}: give one integer or three "
+                                      "(gaps, theta, v)")
+        self.refine = tuple(check_int("refine", x, 1, MAX_REFINE,
+                                      hint="fine-grid steps per table interval") for x in r)
+        self.method = method
+        self.out_of_range = out_of_range
+        self.clip_hint = clip_hint
+
+    # ----------------------------------------------------------------------------- fit
+    def fit(self, table, coalescence_table=None, separated_energy=None):
+        """Load a triplet table, check it and build the fine grids.
+
+        Parameters
+        ----------
+        table : path or xarray.Dataset
+            A triplet table (:mod:`capbridge.generator.triplet_table`).
+        coalescence_table : path or xarray.Dataset, optional
+            The exact coalescence volumes over the geometry
+            (:mod:`capbridge.generator.triplet_coalescence`: ``V_coal_pair``, ``V0_pair``,
+            ``dV_pair``).  If given, V*_coal between the triplet table's nodes follows
+            it (the triplet table's own values are kept at its nodes, the denser
+            table adds its shape between them), and V0, dV are its linear law;
+            otherwise V*_coal is interpolated from the triplet table and V0, dV are
+            fitted per geometry to its V*_coal over theta.
+        separated_energy : path, xarray.Dataset or xarray.DataArray, optional
+            ``energy_separated`` (E* of the lowest separated state at the same total
+            volume, on the table's (d12, d13, d23, theta, v) grid).  Used if the table
+            itself does not carry it; without it ``lower_energy_state`` is "unknown".
+        """
+        ds = self._load(table)
+        self.table_ = ds
+        gaps = np.asarray(ds["d12"].values, float)
+        self.gaps_ = gaps
+        self.theta_ = np.asarray(ds["theta"].values, float)
+        self.v_ = np.asarray(ds["v"].values, float)
+        rg, rt, rv = self.refine if self.method == "cubic" else (1, 1, 1)
+        self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
+                      _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
+        coarse = [gaps, gaps, gaps, self.theta_, self.v_]
+        n_fine = np.prod([a.n for a in self.axes_])
+        if n_fine * (len(GRID_VARIABLES) + 1) * 8 > MAX_GRID_BYTES:
+            raise CapbridgeInputError(
+                f"refine={self.refine} makes a fine grid of {n_fine:,} nodes "
+                f"(> {MAX_GRID_BYTES / 1e6:g} MB); use a smaller refine")
+
+        # node codes: 0 converged, 1 above tolerance, 2 failed, 3 no equilibrium
+        status = np.asarray(ds["status"].values)
+        failure = np.asarray(ds["failure"].values) if "failure" in ds else \
+            np.zeros_like(status)
+        kinds = list(json.loads(ds.attrs.get("failure_kinds", "{}")) or ["none"])
+        no_eq = kinds.index("no_equilibrium") if "no_equilibrium" in kinds else -1
+        vals = np.stack([np.asarray(ds[n].values, float) for n in
+                         ("f12", "f13", "f23", "pressure", "energy_extrapolated")], -1)
+        has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
+            np.isfinite(vals).all(-1)
+        code = np.where(status == Status.ABOVE_TOLERANCE, 1, 0)
+        code = np.where(~has, np.where(failure == no_eq, 3, 2), code)
+        ferr = np.where(has, np.nan_to_num(np.asarray(ds["force_error"].values, float)), 0.0)
+        extra = [ferr]
+        # the separated-state energy, if any: interpolated as E_coal - E_sep
+        esep = self._separated(ds, separated_energy)
+        self.has_separated_energy_ = esep is not None
+        if esep is not None:
+            eerr = np.asarray(ds["energy_error"].values, float) if "energy_error" in ds \
+                else np.zeros(status.shape)
+            extra += [np.where(has, np.nan_to_num(eerr), 0.0),
+                      (~np.isfinite(esep)).astype(float)]
+            vals = np.concatenate([vals, (vals[..., 4] - esep)[..., None]], -1)
+        nv = vals.shape[-1]
+        pv, sv, code = _symmetrise(np.moveaxis(vals[..., :3], -1, 0),
+                                   np.concatenate([np.moveaxis(vals[..., 3:], -1, 0),
+                                                   np.stack(extra)]), code)
+        self.asymmetry_ = float(np.nanmax(np.abs(pv - np.moveaxis(vals[..., :3], -1, 0))))
+        vals = np.concatenate([np.moveaxis(pv, 0, -1), np.moveaxis(sv[:nv - 3], 0, -1)], -1)
+        extra = sv[nv - 3:]
+        has = code <= 1
+        self.node_code_ = code.astype(np.int8)
+        self.cell_code_ = np.ascontiguousarray(_cell_max(self.node_code_))
+        self.cell_force_error_ = np.ascontiguousarray(_cell_max(np.where(has, extra[0], 0.0)))
+        if esep is not None:
+            self.cell_energy_error_ = np.ascontiguousarray(_cell_max(extra[1]))
+            # a cell with a node where no separated state exists: the comparison is unknown
+            self.cell_energy_unknown_ = np.ascontiguousarray(_cell_max(extra[2]) > 0)
+            has &= extra[2] == 0
+        filled = np.stack([_fill_failed(vals[..., k], has, (4, 3)) for k in
+                           range(vals.shape[-1])], -1)
+        self.kernel_ = "simplex" if self.method == "cubic" else "multilinear"
+        self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
+        self._coalescence(ds, coarse, coalescence_table)
+        self.holdout_ = _holdout_arrays(ds)
+        self.interpolation_error_ = None
+        if self.holdout_ is not None and self.holdout_["n"]:
+            e = holdout_errors(self)
+            self.interpolation_error_ = {k: e[k] for k in ("median_rel_error",
+                                                           "max_rel_error", "n")}
+        return self
+
+    @staticmethod
+    def _load(table):
+        from capbridge.generator.netcdf_io import TableError, read_table, validate_table
+
+        if isinstance(table, xr.Dataset):
+            ds, src = validate_table(table, "triplet table (Dataset)"), "triplet table"
+        else:
+            ds, src = read_table(table), str(table)
+        need = ("f12", "f13", "f23", "pressure", "energy_extrapolated", "status",
+                "force_error", "volume_coalescence")
+        missing = [n for n in need if n not in ds]
+        dims = ("d12", "d13", "d23", "theta", "v")
+        if missing or tuple(ds["f12"].dims) != dims:
+            raise TableError(f"{src} is not a triplet table: missing {missing} or dims "
+                             f"{tuple(ds['f12'].dims) if 'f12' in ds else None} != {dims}")
+        g = [np.asarray(ds[d].values, float) for d in dims[:3]]
+        if not (np.array_equal(g[0], g[1]) and np.array_equal(g[0], g[2])):
+            raise TableError(f"{src}: the three gap axes differ; a triplet table is a "
+                             "full cube on one gap axis")
+        for d, lo, hi in (("d12", 0.0, 10.0), ("theta", 0.0, 90.0), ("v", 0.0, 100.0)):
+            x = np.asarray(ds[d].values, float)
+            if x.size < 2 or x[0] < lo or x[-1] >= hi:
+                raise TableError(f"{src}: axis {d} = {x.tolist()} needs >= 2 nodes in "
+                                 f"[{lo:g}, {hi:g})")
+        if str(ds["theta"].attrs.get("units")) not in ("degree", "degrees"):
+            raise TableError(f"{src}: theta must be in degrees")
+        Vc = np.asarray(ds["volume_coalescence"].values, float)
+        if np.any(Vc[np.isfinite(Vc)] <= 0):
+            raise TableError(f"{src}: non-positive coalescence volume")
+        f = np.stack([ds[n].values for n in PAIR_NAMES])
+        if np.any(np.abs(f[np.isfinite(f)]) > 5.0):
+            raise TableError(f"{src}: |f_ij| > 5 (2 pi gamma r): not a capillary force "
+                             "table or damaged")
+        return ds
+
+    def _separated(self, ds, separated_energy):
+        if "energy_separated" in ds:
+            return np.asarray(ds["energy_separated"].values, float)
+        if separated_energy is None:
+            return None
+        src = separated_energy
+        if not isinstance(src, (xr.Dataset, xr.DataArray)):
+            from capbridge.generator.netcdf_io import read_table
+            src = read_table(src)
+        if isinstance(src, xr.Dataset):
+            src = src["energy_separated"]
+        da = src.transpose("d12", "d13", "d23", "theta", "v")
+        for d in ("d12", "d13", "d23", "theta", "v"):
+            if not np.allclose(da[d].values, ds[d].values, rtol=1e-12, atol=1e-12):
+                raise CapbridgeInputError(f"separated_energy: axis {d} differs from the "
+                                          "triplet table's")
+        return np.asarray(da.values, float)
+
+    def _coalescence(self, ds, coarse, coalescence_table):
+        """Fine grids of V*_coal (gaps, theta) and of V0, dV (gaps)."""
+        Vc = np.asarray(ds["volume_coalescence"].values, float)      # (g, g, g, t)
+        ok = np.isfinite(Vc)
+        Vc_f = _fill_failed(Vc, ok, (3,))
+        fine_axes, c4 = self.axes_[:4], coarse[:4]
+        Vfine = _refine(Vc_f, c4, fine_axes, self.method)
+        theta = self.theta_
+        if coalescence_table is None:
+            # the paper's line per geometry, least squares over the table's theta nodes
+            A = np.stack([np.ones_like(theta), theta / 90.0], 1)
+            coef = np.linalg.lstsq(A, Vc_f.reshape(-1, theta.size).T, rcond=None)[0]
+            lin = coef.T.reshape(Vc.shape[:3] + (2,))
+            lin_fine = _refine(lin, coarse[:3], self.axes_[:3], self.method)
+            self.coalescence_source_ = "triplet table (volume_coalescence)"
+        else:
+            Vfine, lin_fine = self._dense_coalescence(coalescence_table, Vfine, c4)
+        self.coal_grid_ = _Grid(Vfine[..., None], self.kernel_)
+        self.law_grid_ = _Grid(lin_fine, self.kernel_)
+
+    def _dense_coalescence(self, table, Vfine, c4):
+        """V*_coal = (triplet table refined) + (dense - dense at the triplet nodes,
+        refined): the triplet table's values at its nodes, the dense table's shape
+        between them; V0, dV from the dense table, at the sorted gaps."""
+        from scipy.interpolate import RegularGridInterpolator
+
+        from capbridge.generator.netcdf_io import read_table
+
+        dc = table if isinstance(table, xr.Dataset) else read_table(table)
+        src = "coalescence table" if isinstance(table, xr.Dataset) else str(table)
+        for n in ("V_coal_pair", "V0_pair", "dV_pair"):
+            if n not in dc:
+                raise CapbridgeInputError(f"{src} has no {n}: not a coalescence table "
+                                          "(capbridge.generator.triplet_coalescence)")
+        g = np.asarray(dc["d12"].values, float)
+        t = np.asarray(dc["theta"].values, float)
+        if g[0] > self.gaps_[0] + 1e-12 or g[-1] < self.gaps_[-1] - 1e-12 or \
+                t[0] > self.theta_[0] + 1e-12 or t[-1] < self.theta_[-1] - 1e-12:
+            raise CapbridgeInputError(
+                f"{src} covers gaps [{g[0]:g}, {g[-1]:g}] and theta [{t[0]:g}, {t[-1]:g}]"
+                f", not the triplet table's [{self.gaps_[0]:g}, {self.gaps_[-1]:g}] and "
+                f"[{self.theta_[0]:g}, {self.theta_[-1]:g}]")
+        V = np.asarray(dc["V_coal_pair"].values, float)
+        if not np.isfinite(V).all():
+            raise CapbridgeInputError(f"{src}: V_coal_pair has missing values")
+        dense = RegularGridInterpolator((g, g, g, t), V)
+        law = RegularGridInterpolator((g, g, g), np.stack(
+            [dc["V0_pair"].values, dc["dV_pair"].values], -1))
+
+        def at(gaps_axis, theta_axis):
+            # the table's reference is the pair on the two smallest gaps: sorted gaps
+            G = np.stack(np.meshgrid(gaps_axis, gaps_axis, gaps_axis, indexing="ij"), -1)
+            Gs = np.sort(G, axis=-1)
+            P = np.concatenate([np.repeat(Gs[..., None, :], theta_axis.size, -2),
+                                np.broadcast_to(theta_axis[:, None], Gs.shape[:3] +
+                                                (theta_axis.size, 1))], -1)
+            return dense(P.reshape(-1, 4)).reshape(P.shape[:-1]), Gs
+
+        fine_g, fine_t = self.axes_[0].nodes, self.axes_[3].nodes
+        d_fine, Gs = at(fine_g, fine_t)
+        d_nodes, _ = at(c4[0], c4[3])
+        corr = d_fine - _refine(d_nodes, c4, self.axes_[:4], self.method)
+        self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair)"
+        lin_fine = law(Gs.reshape(-1, 3)).reshape(Gs.shape[:3] + (2,))
+        return Vfine + corr, lin_fine
+
+    def _check_fitted(self):
+        if not hasattr(self, "table_"):
+            raise RuntimeError("TripletSurrogate is not fitted: call fit(table) first")
+
+    @property
+    def bounds_(self):
+        """Table ranges: gaps, theta [deg], v (dict of (low, high))."""
+        self._check_fitted()
+        return {"gap": (self.gaps_[0], self.gaps_[-1]),
+                "theta": (self.theta_[0], self.theta_[-1]), "v": (self.v_[0], self.v_[-1])}
+
+    def covers(self, d12, d13, d23, theta):
+        """True where the geometry and angle lie inside the table (any volume ratio)."""
+        self._check_fitted()
+        lo, hi = self.gaps_[0] * (1 - _TOL) - _TOL, self.gaps_[-1] * (1 + _TOL)
+        ok = np.ones(np.broadcast_shapes(*(np.shape(x) for x in (d12, d13, d23, theta))),
+                     bool)
+        for d in (d12, d13, d23):
+            d = np.asarray(d, float)
+            ok &= (d >= lo) & (d <= hi)
+        t = np.asarray(theta, float)
+        return ok & (t >= self.theta_[0] - _TOL) & (t <= self.theta_[-1] * (1 + _TOL))
+
+    def coalescence_volume(self, d12, d13, d23, theta):
+        """V*_coal and its linear law (V0, dV) at a geometry and angle: dict of arrays.
+
+        The volume scale of the table (v = V*/V*_coal); gaps and theta are checked as
+        in :meth:`predict`.
+        """
+        self._check_fitted()
+        g, _, t, shape = self._validate(d12, d13, d23, 1.0, theta)
+        loc = [self.axes_[k].locate(x) for k, x in enumerate(g + [t])]
+        idx, fr = [a[0] for a in loc], [a[1] for a in loc]
+        law = self.law_grid_(idx[:3], fr[:3])
+        return {"volume_coalescence": self.coal_grid_(idx, fr)[:, 0].reshape(shape),
+                "V0": law[:, 0].reshape(shape), "dV": law[:, 1].reshape(shape)}
+
+    # ------------------------------------------------------------------------- predict
+    def _validate(self, d12, d13, d23, volume, theta):
+        gaps = [check_range(f"gap {n}", x, 0.0, np.inf,
+                            hint="gap between sphere surfaces / r; overlapping grains "
+                                 "are not supported")
+                for n, x in (("d12", d12), ("d13", d13), ("d23", d23))]
+        volume = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
+        theta = check_range("theta", theta, 0.0, 90.0, high_open=True, units=" deg")
+        shape = np.broadcast_shapes(*(x.shape for x in gaps), volume.shape, theta.shape)
+        g = [np.broadcast_to(x, shape).ravel() for x in gaps]
+        # equal spheres: centre distances 2 + d; a triangle needs each < sum of the others
+        for (a, b, c), (na, nb, nc) in zip(((0, 1, 2), (1, 0, 2), (2, 0, 1)),
+                                           (("d12", "d13", "d23"), ("d13", "d12", "d23"),
+                                            ("d23", "d12", "d13"))):
+            bad = g[a] >= 2.0 + g[b] + g[c]
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                raise CapbridgeInputError(
+                    f"gaps d12={g[0][k]!r}, d13={g[1][k]!r}, d23={g[2][k]!r} do not form a "
+                    f"triangle of centres: {na} must be < 2 + {nb} + {nc} (equal spheres "
+                    f"of radius 1)")
+        names = ("d12", "d13", "d23")
+        for n, x in zip(names, g):
+            self._range(f"gap {n}", x, self.gaps_, " (gap / r)")
+        self._range("theta", np.broadcast_to(theta, shape).ravel(), self.theta_, " deg")
+        return g, np.broadcast_to(volume, shape).ravel(), \
+            np.broadcast_to(theta, shape).ravel(), shape
+
+    def _range(self, name, x, axis, units):
+        lo, hi = axis[0], axis[-1]
+        outside = (x < lo - _TOL * max(1.0, abs(lo))) | (x > hi + _TOL * max(1.0, abs(hi)))
+        if outside.any():
+            raise CapbridgeInputError(
+                f"{name}={x[outside][0]!r}{units.split(' (')[0]} is outside the triplet "
+                f"table's range [{lo:g}, {hi:g}]; another geometry or angle is another "
+                "body: solve it with Surface Evolver (capbridge solve triplet)")
+
+    def predict(self, d12, d13, d23, volume, theta):
+        """The coalesced body on three equal spheres: dict of arrays (broadcast shape).
+
+        Parameters
+        ----------
+        d12, d13, d23 : array_like
+            Gaps between the sphere surfaces d* = d/r [-], >= 0, forming a triangle.
+        volume : array_like
+            Total liquid volume V* = V/r^3 [-], > 0.
+        theta : array_like
+            Contact angle [deg] on the three grains, in [0, 90) and inside the table.
+
+        Returns
+        -------
+        dict
+            ``f12``, ``f13``, ``f23``: effective pair forces F* along the centre lines
+            (attraction > 0); ``pressure`` P*; ``energy`` E* (Richardson-extrapolated
+            surface energy); ``volume_coalescence`` V*_coal; ``v`` = V*/V*_coal (the
+            table coordinate; clipped values are the ones looked up); ``V0``, ``dV``
+            (V*_coal = V0 + (theta/90) dV per geometry); ``energy_difference``
+            E_coalesced - E_separated (NaN if unknown); ``lower_energy_state`` (codes
+            :data:`LOWER_ENERGY_STATES`); ``force_error`` (estimated absolute error of
+            the pair forces, F*: the largest Evolver estimate of the cell's table nodes
+            plus the held-out max relative interpolation error times max |f_ij|);
+            ``status`` (int8 :class:`~capbridge.status.Status`).  Points without a
+            result have NaN forces, pressure and energy.
+        """
+        self._check_fitted()
+        g, V, t, shape = self._validate(d12, d13, d23, volume, theta)
+        out = self._lookup(g, V, t)
+        return {k: v.reshape(shape) for k, v in out.items()}
+
+    def _lookup(self, g, V, t, chunk=8192):
+        n = V.size
+        out = {k: np.empty(n) for k in GRID_VARIABLES + (
+            "volume_coalescence", "v", "V0", "dV", "energy_difference", "force_error")}
+        out["_v_asked"] = np.empty(n)
+        out["status"] = np.empty(n, np.int8)
+        out["lower_energy_state"] = np.empty(n, np.int8)
+        for s in range(0, n, chunk):
+            sl = slice(s, min(s + chunk, n))
+            part = self._lookup_chunk([x[sl] for x in g], V[sl], t[sl])
+            for k, v in part.items():
+                out[k][sl] = v
+        self._raise_out_of_range(out, g, V, t)
+        return out
+
+    def _lookup_chunk(self, g, V, t):
+        ax = self.axes_
+        loc = [ax[k].locate(x) for k, x in zip(range(4), g + [t])]
+        idx4 = [a[0] for a in loc]
+        frac4 = [a[1] for a in loc]
+        Vc = self.coal_grid_(idx4, frac4)[:, 0]
+        law = self.law_grid_(idx4[:3], frac4[:3])
+        v = V / Vc
+        lo, hi = self.v_[0], self.v_[-1]
+        below, above = v < lo * (1 - _TOL), v > hi * (1 + _TOL)
+        vq = np.clip(v, lo, hi)
+        iv, fv = ax[4].locate(vq)
+        vals = self.grid_(idx4 + [iv], frac4 + [fv])
+        cidx = 0
+        cshape = self.cell_code_.shape
+        for k, i in enumerate(idx4 + [iv]):
+            c = np.minimum(i // ax[k].refine, cshape[k] - 1)
+            cidx = cidx * cshape[k] + c
+        code = self.cell_code_.ravel()[cidx]
+        status = np.array([Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.NOT_CONVERGED,
+                           Status.NO_EQUILIBRIUM], np.int8)[code]
+        status = np.where(above & (code <= 1), np.int8(Status.EXTRAPOLATED), status)
+        status = np.where(below & (code <= 2), np.int8(Status.OUT_OF_RANGE), status)
+        res = {name: vals[:, k] for k, name in enumerate(GRID_VARIABLES)}
+        fmax = np.max(np.abs(vals[:, :3]), axis=1)
+        interp = 0.0 if self.interpolation_error_ is None else \
+            self.interpolation_error_["max_rel_error"]
+        res["force_error"] = self.cell_force_error_.ravel()[cidx] + interp * fmax
+        nores = ~np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE,
+                                  Status.EXTRAPOLATED))
+        for name in GRID_VARIABLES + ("force_error",):
+            res[name] = np.where(nores, np.nan, res[name])
+        lower = np.full(V.size, _UNKNOWN, np.int8)
+        if self.has_separated_energy_:
+            dE = np.where(nores, np.nan, vals[:, len(GRID_VARIABLES)])
+            err = self.cell_energy_error_.ravel()[cidx]
+            lower = np.where(dE < -err, 0, np.where(dE > err, 1, 2)).astype(np.int8)
+            unknown = nores | self.cell_energy_unknown_.ravel()[cidx]
+            lower[unknown] = _UNKNOWN
+            dE = np.where(unknown, np.nan, dE)
+            res["energy_difference"] = dE
+        else:
+            res["energy_difference"] = np.full(V.size, np.nan)
+        res.update({"volume_coalescence": Vc, "v": np.where(below | above, vq, v),
+                    "V0": law[:, 0], "dV": law[:, 1], "status": status.astype(np.int8),
+                    "lower_energy_state": lower, "_v_asked": v})
+        return res
+
+    def _raise_out_of_range(self, out, g, V, t):
+        v = out.pop("_v_asked")
+        lo, hi = self.v_[0], self.v_[-1]
+        outside = (v < lo * (1 - _TOL)) | (v > hi * (1 + _TOL))
+        if self.out_of_range == "raise" and outside.any():
+            k = int(np.flatnonzero(outside)[0])
+            raise CapbridgeInputError(
+                f"volume V*={V[k]!r} gives v = V*/V*_coal = {v[k]:.6g} (V*_coal = "
+                f"{out['volume_coalescence'][k]:.6g} at d12={g[0][k]:g}, d13={g[1][k]:g}, "
+                f"d23={g[2][k]:g}, theta={t[k]:g}), outside the triplet table's range "
+                f"[{lo:g}, {hi:g}] ({int(outside.sum())} of {v.size} points); use "
+                f"{self.clip_hint} (above the range: answered at its edge, status "
+                "'extrapolated'; below it: no number) or Surface Evolver (capbridge "
+                "solve triplet)")
+
+    # ---------------------------------------------------------------------- vectors
+    def predict_vectors(self, centres, volume, theta, radii=None):
+        """Force vectors on the three grains in the caller's frame, from the centres.
+
+        Parameters
+        ----------
+        centres : array_like (..., 3, 3)
+            Centres of grains 1, 2, 3 (rows), in units of the normalising radius r
+            (radius 1 for equal spheres).
+        volume : array_like (...)
+            Total liquid volume V* = V/r^3.
+        theta : array_like (...)
+            Contact angle [deg].
+        radii : array_like (..., 3), optional
+            Grain radii / r.  Unequal radii use the approximation of the module
+            docstring (status APPROXIMATE); equal radii R scale the equal-sphere
+            answer exactly (lengths / R, forces * R).
+
+        Returns
+        -------
+        dict
+            ``forces`` (..., 3, 3): F_i = sum_j f_ij u_ij on each grain (u_ij the unit
+            vector from i to j; F* = F/(2 pi gamma r)); they sum to zero and have no
+            torque about the grain centres.  Also the pair forces ``f12``, ``f13``,
+            ``f23`` (F*), ``gaps`` (..., 3) = (d12, d13, d23) / r, and the other keys
+            of :meth:`predict` (pressure in gamma/r, energy in gamma r^2, volumes in
+            r^3, for unequal radii those of the R_12 lookup, status combined over the
+            three lookups).
+        """
+        self._check_fitted()
+        C = check_range("centres", centres)
+        if C.shape[-2:] != (3, 3):
+            raise CapbridgeInputError(f"centres must have shape (..., 3, 3) (three grains, "
+                                      f"x y z), got {C.shape}")
+        R = np.ones(C.shape[:-1]) if radii is None else \
+            check_range("radii", radii, 0.0, np.inf, low_open=True)
+        R = np.broadcast_to(R, C.shape[:-1])
+        shape = np.broadcast_shapes(C.shape[:-2], np.shape(volume), np.shape(theta))
+        C = np.broadcast_to(C, shape + (3, 3))
+        R = np.broadcast_to(R, shape + (3,))
+        V = np.broadcast_to(check_range("volume V*", volume, 0.0, np.inf, low_open=True),
+                            shape)
+        t = np.broadcast_to(np.asarray(theta, float), shape)
+        u, dist = {}, {}
+        for p in PAIRS:
+            d = C[..., p[1], :] - C[..., p[0], :]
+            dist[p] = np.linalg.norm(d, axis=-1)
+            u[p] = d / np.where(dist[p] > 0, dist[p], 1.0)[..., None]
+        gaps = np.stack([dist[(i, j)] - R[..., i] - R[..., j] for i, j in PAIRS], -1)
+        if np.any(gaps < 0):
+            k = np.argwhere(gaps < 0)[0]
+            raise CapbridgeInputError(
+                f"grains {PAIRS[k[-1]][0] + 1} and {PAIRS[k[-1]][1] + 1} overlap (gap "
+                f"{gaps[tuple(k)]:.6g} < 0); overlapping grains are not supported")
+        equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
+        if np.all(equal):
+            s = R[..., 0]                    # exact: the table scaled by the radius
+            r = self.predict(*(gaps[..., k] / s for k in range(3)), V / s**3, t)
+            looks = [(s, r)] * 3
+        else:
+            # each pair from the triplet scaled by its Derjaguin radius (module docstring)
+            looks = []
+            for i, j in PAIRS:
+                s = np.where(equal, R[..., 0], 2 * R[..., i] * R[..., j] /
+                             (R[..., i] + R[..., j]))
+                looks.append((s, self.predict(*(gaps[..., k] / s for k in range(3)),
+                                              V / s**3, t)))
+        s, r = looks[0]
+        res = dict(r)
+        res["pressure"] = r["pressure"] / s
+        res["energy"] = r["energy"] * s**2
+        for name in ("volume_coalescence", "V0", "dV"):
+            res[name] = r[name] * s**3
+        f = [look[PAIR_NAMES[k]] * sk for k, (sk, look) in enumerate(looks)]
+        res["force_error"] = np.max([look["force_error"] * sk for sk, look in looks], 0)
+        status = r["status"]
+        for _, look in looks[1:]:
+            status = _combine_status(status, look["status"])
+        if not np.all(equal):
+            has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            status = np.where(has & ~equal, np.int8(Status.APPROXIMATE), status)
+        res["status"] = np.asarray(status, np.int8)
+        for k, name in enumerate(PAIR_NAMES):
+            res[name] = f[k]
+        F = np.zeros(shape + (3, 3))
+        for k, (i, j) in enumerate(PAIRS):
+            F[..., i, :] += f[k][..., None] * u[(i, j)]
+            F[..., j, :] -= f[k][..., None] * u[(i, j)]
+        res["forces"] = F
+        res["gaps"] = gaps
+        return res
+
+    def predict_si(self, radius, surface_tension, centres, volume, theta):
+        """Force vectors in newtons from SI inputs.
+
+        Parameters
+        ----------
+        radius : float or array_like (..., 3)
+            Grain radius [m] (one for equal spheres, or one per grain: unequal radii
+            are approximated, status APPROXIMATE).
+        surface_tension : float
+            gamma [N/m].
+        centres : array_like (..., 3, 3)
+            Grain centres [m].
+        volume : array_like (...)
+            Total liquid volume [m^3].
+        theta : array_like (...)
+            Contact angle [deg].
+
+        Returns
+        -------
+        dict
+            ``forces`` (..., 3, 3) [N] on each grain, ``f12``, ``f13``, ``f23`` [N]
+            (attraction > 0), ``pressure`` [Pa], ``volume_coalescence`` [m^3],
+            ``gaps`` [m], ``force_error`` [N], ``status``.
+        """
+        from capbridge.dimensionless import force_scale, pressure_scale
+
+        slip = "SI units expected: radii in m, surface_tension in N/m (a unit slip?)"
+        R = check_range("predict_si radius", radius, *SI_RADIUS_RANGE, units=" m",
+                        hint=slip)
+        gamma = check_range("predict_si surface_tension", surface_tension,
+                            *SI_SURFACE_TENSION_RANGE, units=" N/m", hint=slip)
+        C = check_range("predict_si centres", centres, units=" m")
+        Vm = check_range("predict_si volume", volume, 0.0, np.inf, low_open=True,
+                         units=" m^3")
+        # a last axis of length 3 is one radius per grain; anything else one per triplet
+        Rg = R if (R.ndim and R.shape[-1] == 3) else np.repeat(R[..., None], 3, -1)
+        r = np.min(Rg, axis=-1)                              # normalising radius
+        try:
+            res = self.predict_vectors(C / r[..., None, None], Vm / r**3, theta,
+                                       radii=Rg / r[..., None])
+        except CapbridgeInputError as exc:
+            raise CapbridgeInputError(
+                f"predict_si: {exc} (lengths / R_min, V* = volume [m^3] / R_min^3, R_min "
+                "the smallest radius [m]; theta in degrees)") from None
+        fs = force_scale(r, gamma)
+        out = {"forces": res["forces"] * fs[..., None, None], "status": res["status"],
+               "pressure": res["pressure"] * pressure_scale(r, gamma),
+               "volume_coalescence": res["volume_coalescence"] * r**3,
+               "gaps": res["gaps"] * r[..., None], "force_error": res["force_error"] * fs}
+        for name in PAIR_NAMES:
+            out[name] = res[name] * fs
+        return out
+
+
+#: precedence of statuses when one point is answered by several lookups: a status
+#: without a result first, then EXTRAPOLATED, ABOVE_TOLERANCE, CONVERGED
+_RANK = np.full(max(Status) + 1, 3, np.int8)
+_RANK[[Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.EXTRAPOLATED]] = (0, 1, 2)
+
+
+def _combine_status(a, b):
+    """Status of a point answered by several lookups (precedence :data:`_RANK`)."""
+    a, b = np.asarray(a, np.int8), np.asarray(b, np.int8)
+    return np.where(_RANK[b] > _RANK[a], b, a).astype(np.int8)
+
+
+# --------------------------------------------------------------------------------------
+# error model
+# --------------------------------------------------------------------------------------
+
+
+def _holdout_arrays(ds):
+    if "holdout_f12" not in ds:
+        return None
+    h = {k: np.asarray(ds[f"holdout_{k}"].values, float) for k in
+         ("d12", "d13", "d23", "theta", "v", "volume", "f12", "f13", "f23")}
+    h["status"] = np.asarray(ds["holdout_status"].values)
+    h["ok"] = np.isin(h["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
+        np.isfinite(np.stack([h[n] for n in PAIR_NAMES])).all(0)
+    h["n"] = int(h["ok"].sum())
+    return h
+
+
+def holdout_errors(surrogate, by="volume", permute=False):
+    """Relative error of the pair forces against the table's held-out Evolver points.
+
+    The held-out points (random geometries, angles and volume ratios inside the grid,
+    solved one Evolver level finer than the table) are looked up at their total volume
+    V* (``by="volume"``, what a user does: includes the error of V*_coal) or at their
+    volume ratio v (``by="v"``: the interpolation of the forces alone).  ``permute``:
+    every point also under the 5 relabellings of its grains.
+
+    Returns a dict: ``rel_error`` (n, 3) |f_sur / f_held - 1| per pair, ``used`` mask
+    (both the held-out point and the lookup have a result), ``median_rel_error``,
+    ``max_rel_error`` over the used pair forces, ``n`` points used.
+    """
+    h = surrogate.holdout_
+    if h is None:
+        raise CapbridgeInputError("the table has no held-out points (holdout_*)")
+    g = np.stack([h["d12"], h["d13"], h["d23"]], 1)
+    f_ref = np.stack([h[n] for n in PAIR_NAMES], 1)
+    perms = list(itertools.permutations(range(3))) if permute else [(0, 1, 2)]
+    errs, used = [], []
+    keep = surrogate.out_of_range
+    surrogate.out_of_range = "clip"          # v of a held-out point may sit on the edge
+    try:
+        for p in perms:
+            # grain k of the relabelled triplet is grain p[k] of the held-out one
+            gap = {(i, j): g[:, PAIRS.index(tuple(sorted((i, j))))] for i, j in PAIRS}
+            q = [gap[tuple(sorted((p[i], p[j])))] for i, j in PAIRS]
+            if by == "v":
+                Vc = surrogate.predict(*q, 1.0, h["theta"])["volume_coalescence"]
+                vol = h["v"] * Vc
+            else:
+                vol = h["volume"]
+            r = surrogate.predict(*q, vol, h["theta"])
+            f_sur = np.stack([r[n] for n in PAIR_NAMES], 1)
+            ref = np.stack([f_ref[:, PAIRS.index(tuple(sorted((p[i], p[j]))))]
+                            for i, j in PAIRS], 1)
+            ok = h["ok"] & np.isin(r["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            errs.append(np.abs(f_sur / ref - 1.0))
+            used.append(ok)
+    finally:
+        surrogate.out_of_range = keep
+    e = np.concatenate(errs)
+    u = np.concatenate(used)
+    sel = e[u]
+    return {"rel_error": e, "used": u,
+            "median_rel_error": float(np.median(sel)) if sel.size else np.nan,
+            "max_rel_error": float(np.max(sel)) if sel.size else np.nan,
+            "n": int(u.sum()), "by": by}

@@ -1,0 +1,386 @@
+"""TripletSurrogate: symmetry, vectors, nodes, held-out points, statuses, bad input.
+
+The table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default: the shipped ``data/triplet_table.nc``).
+"""
+import itertools
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from capbridge.generator.netcdf_io import read_table
+from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.triplet import (LOWER_ENERGY_STATES, PAIR_NAMES, PAIRS,
+                                         _SORTING_NETWORKS, TripletSurrogate, _Grid,
+                                         default_table, holdout_errors)
+from capbridge.validation import CapbridgeInputError
+
+TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
+pytestmark = pytest.mark.skipif(not TABLE.exists(), reason=f"no triplet table at {TABLE}")
+
+ANSWERED = (Status.CONVERGED, Status.ABOVE_TOLERANCE)
+
+
+@pytest.fixture(scope="module")
+def table():
+    return read_table(TABLE)
+
+
+@pytest.fixture(scope="module")
+def sur(table):
+    return TripletSurrogate().fit(table)
+
+
+def _editable(table):
+    """A copy whose values may be changed (the checksum would refuse an edit)."""
+    ds = table.copy(deep=True)
+    ds.attrs.pop("data_sha256", None)
+    return ds
+
+
+def _inside(sur, n, seed, v=None):
+    """Random (d12, d13, d23, theta, V*) inside the table, answered by the surrogate."""
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(sur.gaps_[0], sur.gaps_[-1], (3, n))
+    t = rng.uniform(sur.theta_[0], sur.theta_[-1], n)
+    span = sur.v_[-1] - sur.v_[0]          # 1 % off the edges: V*_coal of the lookup
+    vv = rng.uniform(sur.v_[0] + 0.01 * span, sur.v_[-1] - 0.01 * span, n) if v is None \
+        else np.full(n, v)
+    return g, t, vv * sur.coalescence_volume(*g, t)["volume_coalescence"]
+
+
+def test_permutation_symmetry(sur):
+    """Relabelling the grains permutes the pair forces, nothing else changes."""
+    g, t, V = _inside(sur, 300, 1)
+    ref = sur.predict(*g, V, t)
+    gap = {p: g[k] for k, p in enumerate(PAIRS)}
+    for perm in itertools.permutations(range(3)):
+        q = [gap[tuple(sorted((perm[i], perm[j])))] for i, j in PAIRS]
+        r = sur.predict(*q, V, t)
+        for (i, j), name in zip(PAIRS, PAIR_NAMES):
+            src = PAIR_NAMES[PAIRS.index(tuple(sorted((perm[i], perm[j]))))]
+            np.testing.assert_allclose(r[name], ref[src], rtol=1e-12, atol=1e-13)
+        for name in ("pressure", "energy", "volume_coalescence", "V0", "dV", "v"):
+            np.testing.assert_allclose(r[name], ref[name], rtol=1e-12, atol=1e-13)
+        np.testing.assert_array_equal(r["status"], ref["status"])
+
+
+def test_vectors_balance_and_match_pair_forces(sur):
+    """Forces sum to zero, have no torque, and decompose into the pair forces of predict,
+    in any frame (rotated, translated)."""
+    g, t, V = _inside(sur, 50, 2)
+    rng = np.random.default_rng(3)
+    a, b, c = 2 + g
+    x3 = (a * a + b * b - c * c) / (2 * a)
+    C = np.zeros((50, 3, 3))
+    C[:, 1, 0] = a
+    C[:, 2, 0], C[:, 2, 1] = x3, np.sqrt(b * b - x3 * x3)
+    Q, _ = np.linalg.qr(rng.normal(size=(50, 3, 3)))
+    C = np.einsum("nij,nkj->nki", Q, C) + rng.normal(size=(50, 1, 3))
+    r = sur.predict_vectors(C, V, t)
+    p = sur.predict(*g, V, t)
+    ok = np.isin(r["status"], ANSWERED)
+    assert ok.sum() > 10
+    F = r["forces"][ok]
+    scale = np.abs(F).max()
+    assert np.abs(F.sum(axis=1)).max() < 1e-12 * scale
+    torque = np.cross(C[ok], F).sum(axis=1)
+    assert np.abs(torque).max() < 1e-11 * scale
+    np.testing.assert_allclose(r["gaps"], g.T, atol=1e-12)
+    for name in PAIR_NAMES:
+        np.testing.assert_allclose(r[name][ok], p[name][ok], rtol=1e-12)
+    # attraction > 0 pulls grain 1 towards grain 2: F_1 . u_12 = f12 + f13 cos(angle)
+    u12 = (C[ok, 1] - C[ok, 0]) / np.linalg.norm(C[ok, 1] - C[ok, 0], axis=1)[:, None]
+    u13 = (C[ok, 2] - C[ok, 0]) / np.linalg.norm(C[ok, 2] - C[ok, 0], axis=1)[:, None]
+    np.testing.assert_allclose(np.einsum("ni,ni->n", F[:, 0], u12),
+                               p["f12"][ok] + p["f13"][ok] * np.einsum("ni,ni->n", u12, u13),
+                               rtol=1e-10)
+
+
+def test_nodes_reproduced(sur, table):
+    """At every table node answered by its cell, the table's values come back: exactly
+    (1e-9) where the three gaps differ, within the Evolver error estimate at ties
+    (where the surrogate averages pair forces that are equal by symmetry)."""
+    G = np.meshgrid(*(table[d].values for d in ("d12", "d13", "d23", "theta", "v")),
+                    indexing="ij")
+    V = G[4] * table["volume_coalescence"].values[..., None]
+    r = sur.predict(G[0], G[1], G[2], V, G[3])
+    ok = np.isin(r["status"], ANSWERED) & np.isin(table["status"].values, ANSWERED)
+    assert ok.sum() >= 0.3 * ok.size
+    np.testing.assert_allclose(r["volume_coalescence"],
+                               np.broadcast_to(table["volume_coalescence"].values[..., None],
+                                               V.shape), rtol=1e-12)
+    distinct = (G[0] != G[1]) & (G[0] != G[2]) & (G[1] != G[2])
+    for name in PAIR_NAMES:
+        got, want = r[name], table[name].values
+        np.testing.assert_allclose(got[ok & distinct], want[ok & distinct], rtol=1e-9,
+                                   atol=1e-12)
+        tie = ok & ~distinct
+        assert np.all(np.abs(got[tie] - want[tie]) <= table["force_error"].values[tie]
+                      + 1e-12), name
+    # scalars are the same at every relabelled copy: exact at ties too
+    np.testing.assert_allclose(r["pressure"][ok], table["pressure"].values[ok], rtol=1e-9)
+    np.testing.assert_allclose(r["energy"][ok], table["energy_extrapolated"].values[ok],
+                               rtol=1e-9)
+
+
+def test_holdout_points_within_error(sur):
+    """Held-out Evolver points (one level finer): each pair force within the surrogate's
+    own error estimate (the cell's Evolver error plus the measured interpolation error),
+    and the same errors under every relabelling of the grains."""
+    e = holdout_errors(sur)
+    assert e["n"] >= 1
+    h = sur.holdout_
+    r = sur.predict(h["d12"], h["d13"], h["d23"], h["volume"], h["theta"])
+    used = e["used"]
+    for k, name in enumerate(PAIR_NAMES):
+        diff = np.abs(r[name][used] - h[name][used])
+        assert np.all(diff <= r["force_error"][used] + 1e-12), name
+    ep = holdout_errors(sur, permute=True)
+    np.testing.assert_allclose(np.sort(ep["rel_error"][ep["used"]].ravel()),
+                               np.sort(np.tile(e["rel_error"][used], (6, 1)).ravel()),
+                               rtol=1e-9, atol=1e-12)
+    assert sur.interpolation_error_["max_rel_error"] == pytest.approx(e["max_rel_error"])
+
+
+def test_linear_method_reproduces_multilinear(table):
+    """method='linear' is multilinear on the raw grid: at a cell centre the mean of the
+    cell's 32 corners."""
+    s = TripletSurrogate(method="linear").fit(table)
+    ok = np.isin(table["status"].values, ANSWERED)
+    idx = np.argwhere(ok[:-1, :-1, :-1, :-1, :-1] & ok[1:, 1:, 1:, 1:, 1:])
+    for i in idx[:3]:
+        sl = tuple(slice(a, a + 2) for a in i)
+        axes = [table[d].values for d in ("d12", "d13", "d23", "theta", "v")]
+        mid = [0.5 * (ax[a] + ax[a + 1]) for ax, a in zip(axes, i)]
+        V = mid[4] * s.coalescence_volume(*mid[:4])["volume_coalescence"]
+        r = s.predict(*mid[:3], V, mid[3])
+        if not np.isin(r["status"], ANSWERED):
+            continue
+        # the corners of the symmetrised cube: the table's own where gaps differ
+        want = np.mean(table["f23"].values[sl])
+        assert r["f23"] == pytest.approx(want, rel=0, abs=2 * float(
+            table["force_error"].values[sl].max()) + 1e-12)
+
+
+def test_kernels_exact_on_linear_functions():
+    """Simplex and multilinear kernels reproduce a linear function exactly; the sorting
+    networks sort."""
+    for k, net in _SORTING_NETWORKS.items():
+        for p in itertools.product(range(k), repeat=k):
+            a = list(p)
+            for i, j in net:
+                if a[i] < a[j]:
+                    a[i], a[j] = a[j], a[i]
+            assert a == sorted(p, reverse=True)
+    shape = (4, 3, 5, 3, 4)
+    X = np.meshgrid(*(np.arange(n, dtype=float) for n in shape), indexing="ij")
+    vals = np.stack([sum((m + 1) * x for m, x in enumerate(X)), X[0] - 2 * X[4]], -1)
+    rng = np.random.default_rng(0)
+    pts = [rng.uniform(0, n - 1, 200) for n in shape]
+    idx = [np.minimum(p.astype(int), n - 2) for p, n in zip(pts, shape)]
+    fr = [p - i for p, i in zip(pts, idx)]
+    want = np.stack([sum((m + 1) * p for m, p in enumerate(pts)), pts[0] - 2 * pts[4]], -1)
+    for kernel in ("simplex", "multilinear"):
+        np.testing.assert_allclose(_Grid(vals, kernel)(idx, fr), want, rtol=1e-12,
+                                   atol=1e-12)
+
+
+def test_refinement_error_small(table, sur):
+    """The fine grid's own error (twice finer grid as reference) is far below the
+    held-out error."""
+    fine = TripletSurrogate(refine=tuple(2 * r for r in sur.refine)).fit(table)
+    g, t, V = _inside(sur, 400, 5)
+    a, b = sur.predict(*g, V, t), fine.predict(*g, V, t)
+    ok = np.isin(a["status"], ANSWERED)
+    d = max(np.max(np.abs(a[n][ok] / b[n][ok] - 1)) for n in PAIR_NAMES)
+    assert d < 0.25 * max(sur.interpolation_error_["median_rel_error"], 1e-3)
+
+
+def test_statuses_at_failed_and_inexact_nodes(table):
+    """A no-equilibrium node: its cells answer NO_EQUILIBRIUM with no number; another
+    failure: NOT_CONVERGED; above tolerance: ABOVE_TOLERANCE with the number; cells
+    away from them are unaffected."""
+    import json
+
+    ds = _editable(table)
+    st = ds["status"].values.copy()
+    fail = ds["failure"].values.copy()
+    kinds = list(json.loads(ds.attrs["failure_kinds"]))
+    st[:] = Status.CONVERGED
+    fail[:] = 0
+    # node (0,0,0,0,0) no equilibrium (and its relabelled copies: the same node)
+    st[0, 0, 0, 0, 0], fail[0, 0, 0, 0, 0] = Status.NOT_CONVERGED, kinds.index("no_equilibrium")
+    st[-1, -1, -1, -1, -1], fail[-1, -1, -1, -1, -1] = Status.NOT_CONVERGED, kinds.index("timeout")
+    st[0, 0, 0, -1, -1] = Status.ABOVE_TOLERANCE
+    ds["status"].values[:] = st
+    ds["failure"].values[:] = fail
+    for name in ("f12", "f13", "f23", "pressure", "energy_extrapolated", "force_error"):
+        ds[name].values[np.isnan(ds[name].values)] = 0.5
+    s = TripletSurrogate().fit(ds)
+    ax = [ds[d].values for d in ("d12", "d13", "d23", "theta", "v")]
+    if min(len(x) for x in ax) < 3:
+        pytest.skip("needs >= 3 nodes per axis (the shipped table)")
+    lo = [x[0] + 0.25 * (x[1] - x[0]) for x in ax]                             # first cell
+    hi = [x[-1] - 0.25 * (x[-1] - x[-2]) for x in ax]                          # last cell
+    corner = [x[0] + 0.25 * (x[1] - x[0]) for x in ax[:3]] + \
+        [ax[3][-1] - 0.1, ax[4][-1] - 0.01]
+    mid = [x[len(x) // 2] + 0.3 * (x[len(x) // 2 + 1] - x[len(x) // 2])
+           if len(x) > 2 else 0.5 * (x[0] + x[1]) for x in ax]
+    out = {}
+    for key, p in (("lo", lo), ("hi", hi), ("corner", corner), ("mid", mid)):
+        Vc = s.coalescence_volume(*p[:4])["volume_coalescence"]
+        out[key] = s.predict(*p[:3], p[4] * Vc, p[3])
+    assert out["lo"]["status"] == Status.NO_EQUILIBRIUM and np.isnan(out["lo"]["f12"])
+    assert out["hi"]["status"] == Status.NOT_CONVERGED and np.isnan(out["hi"]["f23"])
+    assert out["corner"]["status"] == Status.ABOVE_TOLERANCE
+    assert np.isfinite(out["corner"]["f13"])
+    if len(ax[0]) > 2:
+        assert out["mid"]["status"] == Status.CONVERGED
+
+
+def test_volume_outside_the_table(sur, table):
+    """v above the table: an error naming the value and range, or with clip the edge's
+    answer (EXTRAPOLATED); below it: an error, or with clip no number."""
+    g = [float(np.mean(table["d12"].values[:2]))] * 3
+    t = float(table["theta"].values[1])
+    clip = TripletSurrogate(refine=sur.refine, out_of_range="clip").fit(table)
+    Vc = float(sur.coalescence_volume(*g, t)["volume_coalescence"])
+    vmax, vmin = float(table["v"].values[-1]), float(table["v"].values[0])
+    with pytest.raises(CapbridgeInputError, match=r"outside the triplet table's range"):
+        sur.predict(*g, 1.5 * vmax * Vc, t)
+    with pytest.raises(CapbridgeInputError, match=r"\[" + f"{vmin:g}"):
+        sur.predict(*g, 0.5 * vmin * Vc, t)
+    edge = clip.predict(*g, vmax * Vc, t)
+    above = clip.predict(*g, 1.5 * vmax * Vc, t)
+    if edge["status"] in ANSWERED:
+        assert above["status"] == Status.EXTRAPOLATED
+        for n in PAIR_NAMES:
+            assert above[n] == pytest.approx(float(edge[n]), rel=1e-9)
+    below = clip.predict(*g, 0.5 * vmin * Vc, t)
+    assert below["status"] in (Status.OUT_OF_RANGE, Status.NO_EQUILIBRIUM,
+                               Status.NOT_CONVERGED)
+    assert np.isnan(below["f12"])
+
+
+@pytest.mark.parametrize("args, match", [
+    ((-0.01, 0.05, 0.05, 0.3, 30), r"gap d12=-0\.01.*\[0, inf\)"),
+    ((np.nan, 0.05, 0.05, 0.3, 30), r"gap d12=nan"),
+    ((0.05, 0.05, 0.05, -0.3, 30), r"volume V\*=-0\.3.*\(0, inf\)"),
+    ((0.05, 0.05, 0.05, np.nan, 30), r"volume V\*=nan"),
+    ((0.05, 0.05, 0.05, 0.0, 30), r"volume V\*=0\.0"),
+    ((0.05, 0.05, 0.05, 0.3, 90), r"theta=90\.0 deg.*\[0, 90\)"),
+    ((0.05, 0.05, 0.05, 0.3, -5), r"theta=-5\.0 deg"),
+    ((0.05, 0.05, 0.05, 0.3, np.nan), r"theta=nan"),
+    ((0.0, 0.0, 2.5, 0.3, 30), r"do not form a triangle"),
+    ((0.05, 0.05, 5.0, 0.3, 30), r"do not form a triangle"),
+    ((0.05, 0.05, 1.0, 0.3, 30), r"gap d23=1\.0 is outside the triplet table's range"),
+    (("x", 0.05, 0.05, 0.3, 30), r"not a number"),
+])
+def test_bad_input_is_one_clear_error(sur, args, match):
+    with pytest.raises(CapbridgeInputError, match=match) as exc:
+        sur.predict(*args)
+    assert "\n" not in str(exc.value)
+
+
+def test_theta_outside_table_is_an_error_even_with_clip(table):
+    clip = TripletSurrogate(out_of_range="clip").fit(table)
+    top = float(table["theta"].values[-1])
+    if top < 89:
+        with pytest.raises(CapbridgeInputError, match="theta=.*outside the triplet table"):
+            clip.predict(0.05, 0.05, 0.05, 0.3, top + 0.5)
+
+
+def test_vectors_and_si_inputs(sur):
+    good = np.array([[0.0, 0, 0], [2.1, 0, 0], [1.05, 0, 1.9]])
+    with pytest.raises(CapbridgeInputError, match="overlap"):
+        sur.predict_vectors(good * 0.9, 0.3, 30)
+    with pytest.raises(CapbridgeInputError, match=r"shape \(\.\.\., 3, 3\)"):
+        sur.predict_vectors(good[:2], 0.3, 30)
+    with pytest.raises(CapbridgeInputError, match="predict_si radius=1.0 m"):
+        sur.predict_si(1.0, 0.072, good * 1e-3, 1e-10, 30)          # radius in mm
+    with pytest.raises(CapbridgeInputError, match="surface_tension=72.0 N/m"):
+        sur.predict_si(1e-3, 72.0, good * 1e-3, 1e-10, 30)          # gamma in mN/m
+    with pytest.raises(CapbridgeInputError, match="predict_si volume"):
+        sur.predict_si(1e-3, 0.072, good * 1e-3, -1e-10, 30)
+
+
+def test_si_and_scaling(sur):
+    """Equal radii R: the equal-sphere answer scaled exactly; SI = dimensionless x
+    2 pi gamma R; unequal radii: APPROXIMATE, never silent."""
+    g, t, V = _inside(sur, 20, 8)
+    a, b, c = 2 + g
+    x3 = (a * a + b * b - c * c) / (2 * a)
+    C = np.zeros((20, 3, 3))
+    C[:, 1, 0] = a
+    C[:, 2, 0], C[:, 2, 2] = x3, np.sqrt(b * b - x3 * x3)
+    r1 = sur.predict_vectors(C, V, t)
+    ok = np.isin(r1["status"], ANSWERED)
+    R = 1.7
+    r2 = sur.predict_vectors(C * R, V * R**3, t, radii=np.full(3, R))
+    np.testing.assert_allclose(r2["forces"][ok], R * r1["forces"][ok], rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(r2["status"], r1["status"])
+    Rm, gamma = 2e-3, 0.072
+    si = sur.predict_si(Rm, gamma, C * Rm, V * Rm**3, t)
+    np.testing.assert_allclose(si["forces"][ok], r1["forces"][ok] * 2 * np.pi * gamma * Rm,
+                               rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(si["pressure"][ok], r1["pressure"][ok] * gamma / Rm, rtol=1e-12)
+    # unequal radii
+    radii = np.array([1.0, 1.0 + 1e-6, 1.0])
+    Cu = C.copy()
+    Cu[:, 1, 0] += 1e-6
+    r3 = sur.predict_vectors(Cu, V, t, radii=radii)
+    assert np.all(r3["status"][ok] == Status.APPROXIMATE)
+    assert Status.APPROXIMATE in HAS_RESULT
+    np.testing.assert_allclose(r3["forces"][ok], r1["forces"][ok], rtol=1e-4, atol=1e-5)
+
+
+def test_coalescence_table_plugs_in(table, sur):
+    """A coalescence table on the triplet table's own grid with its own values changes
+    nothing in V*_coal; its linear law is used for V0, dV; one that does not cover the
+    table is refused."""
+    axes = {d: table[d] for d in ("d12", "d13", "d23", "theta")}
+    Vc = table["volume_coalescence"]
+    V0 = xr.DataArray(np.full(Vc.shape[:3], 0.123), dims=("d12", "d13", "d23"))
+    dc = xr.Dataset({"V_coal_pair": Vc, "V0_pair": V0, "dV_pair": V0 * 2}, coords=axes)
+    s = TripletSurrogate().fit(table, coalescence_table=dc)
+    g, t, V = _inside(sur, 100, 9)
+    a, b = sur.predict(*g, V, t), s.predict(*g, V, t)
+    np.testing.assert_allclose(b["volume_coalescence"], a["volume_coalescence"], rtol=1e-9)
+    np.testing.assert_allclose(b["f12"], a["f12"], rtol=1e-9)
+    np.testing.assert_allclose(b["V0"], 0.123, rtol=1e-12)
+    np.testing.assert_allclose(b["dV"], 0.246, rtol=1e-12)
+    small = dc.assign_coords({d: dc[d] * 0.5 for d in ("d12", "d13", "d23")})
+    with pytest.raises(CapbridgeInputError, match="covers gaps"):
+        TripletSurrogate().fit(table, coalescence_table=small)
+
+
+def test_linear_law_without_coalescence_table(sur, table):
+    """V0 + (theta/90) dV is the least-squares line of the table's V*_coal over theta."""
+    th = table["theta"].values
+    Vc = table["volume_coalescence"].values[0, 1, -1]
+    A = np.stack([np.ones_like(th), th / 90], 1)
+    coef = np.linalg.lstsq(A, Vc, rcond=None)[0]
+    g = table["d12"].values
+    r = sur.predict(g[0], g[1], g[-1], Vc[1] * table["v"].values[1], th[1])
+    assert r["V0"] == pytest.approx(coef[0], rel=1e-9)
+    assert r["dV"] == pytest.approx(coef[1], rel=1e-9)
+
+
+def test_lower_energy_state(table, sur):
+    """Without separated energies the state is 'unknown'; with them, the sign of
+    E_coalesced - E_separated beyond the energy error decides."""
+    g, t, V = _inside(sur, 50, 10)
+    r = sur.predict(*g, V, t)
+    assert np.all(r["lower_energy_state"] == 3) and LOWER_ENERGY_STATES[3] == "unknown"
+    E = table["energy_extrapolated"]
+    for shift, code in ((1.0, 0), (-1.0, 1), (0.0, 2)):
+        s = TripletSurrogate().fit(table, separated_energy=(E + shift).rename(
+            "energy_separated"))
+        r = s.predict(*g, V, t)
+        ok = np.isin(r["status"], ANSWERED)
+        assert np.all(r["lower_energy_state"][ok] == code), shift
+        np.testing.assert_allclose(r["energy_difference"][ok], -shift, atol=1e-9)
+        assert np.all(r["lower_energy_state"][~ok] == 3)
