@@ -24,6 +24,14 @@ the figure is the median over the rounds.  Variants:
 
 Prints a markdown section (command, machine, table); ``--write`` also writes it to
 ``benchmarks/RESULTS_yade.md``.
+
+``--wet-poly N`` (issue 9's benchmark) is a separate run: N polydisperse grains (radius
+1 mm +-30 %, uniform), deposited dry, then one run each of YADE's
+``Law2_ScGeom_CapillaryPhys_Capillarity`` (capbridge's theta = 30 deg suction files,
+suction giving V* = 0.02 at contact for two mean grains) and of ``CapbridgeEngine`` at a
+1 % water content (conserved liquid on films, theta = 30 deg, defaults), on the same
+packing; then the cost of a restart (``O.saveTmp`` with the engine's state, ``O.loadTmp``,
+the first step, which restores it) and of ``O.save`` to a file.
 """
 from __future__ import annotations
 
@@ -96,6 +104,117 @@ def make_packing(n, out, max_steps=25000):
     np.savez(out, pos=pos, rad=rad, side=side, iters=O.iter, seconds=time.time() - t0,
              unbalanced=utils.unbalancedForce())
     print(json.dumps({"n": len(sph), "iters": O.iter, "seconds": time.time() - t0}))
+
+
+def make_poly_packing(n, out, max_steps=20000, r_mean=1e-3, fuzz=0.3):
+    """Dry deposition of n spheres, radius uniform in r_mean (1 +- fuzz), in a box."""
+    yade, w, utils = _yade_env()
+    from yade import pack
+
+    O = yade.Omega()
+    side = (n * 4 / 3 * np.pi * r_mean**3 * (1 + fuzz**2) / 0.6) ** (1 / 3)
+    sp = pack.SpherePack()
+    sp.makeCloud((0, 0, 0), (side, side, 2.5 * side), rMean=r_mean, rRelFuzz=fuzz, num=n, seed=5)
+    if len(sp) != n:
+        raise RuntimeError(f"makeCloud placed {len(sp)} of {n} spheres")
+    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
+    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 2.5 * side)], thickness=0, material=mat))
+    sp.toSimulation(material=mat)
+    O.engines = [w.ForceResetter(), w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
+                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
+                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
+                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
+                 w.NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    t0 = time.time()
+    while O.iter < max_steps:
+        O.run(500, True)
+        if O.iter > 5000 and utils.unbalancedForce() < 0.05:
+            break
+    sph = [b for b in O.bodies if isinstance(b.shape, w.Sphere)]
+    np.savez(out, pos=np.array([tuple(b.state.pos) for b in sph]),
+             rad=np.array([b.shape.radius for b in sph]), side=side, height=2.5 * side,
+             iters=O.iter, seconds=time.time() - t0, unbalanced=utils.unbalancedForce())
+
+
+def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
+    """Issue 9's benchmark, one variant (``law2`` or ``capbridge``); prints the result."""
+    yade, w, utils = _yade_env()
+    from capbridge.dem_plugin import yade_runtime
+    from capbridge.dem_plugin.engine import CapbridgeEngine
+
+    O = yade.Omega()
+    d = np.load(packing)
+    side, height = float(d["side"]), float(d["height"])
+    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
+    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, height)], thickness=0, material=mat))
+    for p, r in zip(d["pos"], d["rad"]):
+        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    f, cap = 1.0, None
+    ip2, law = w.Ip2_FrictMat_FrictMat_FrictPhys(), w.Law2_ScGeom_FrictPhys_CundallStrack()
+    if variant == "law2":
+        f = factor
+        ip2 = w.Ip2_FrictMat_FrictMat_CapillaryPhys()
+        law = w.Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)
+        os.chdir(files)
+        extra = [w.Law2_ScGeom_CapillaryPhys_Capillarity(
+            capillaryPressure=suction, surfaceTension=GAMMA, suffCapFiles="_theta30", label="cap")]
+    else:
+        kw = {"capbridge": {}, "capbridge_held": {"force_tolerance": 1e-3},
+              "capbridge10": {"refresh_every": 10}}[variant]
+        cap = CapbridgeEngine(theta=THETA, gamma=GAMMA, water_content=0.01, label="bench", **kw)
+        extra = [cap.pyrunner()]
+    O.engines = ([w.ForceResetter(),
+                  w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=f), w.Bo1_Box_Aabb()]),
+                  w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=f),
+                                     w.Ig2_Box_Sphere_ScGeom()], [ip2], [law])]
+                 + extra + [w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))])
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    t0 = time.perf_counter()
+    O.run(warmup, True)
+    first = time.perf_counter() - t0
+    if cap is not None:
+        c_eng0, n_eng0 = cap.timings["cpu_seconds"], cap.timings["steps"]
+    t0, c0 = time.perf_counter(), time.process_time()
+    O.run(steps, True)
+    out = {"variant": variant, "n": int(len(d["rad"])), "steps": steps,
+           "ms_per_step": (time.process_time() - c0) / steps * 1e3,
+           "wall_ms_per_step": (time.perf_counter() - t0) / steps * 1e3,
+           "warmup_seconds": first, "real_interactions": int(O.interactions.countReal()),
+           "radius_range": [float(d["rad"].min()), float(d["rad"].max())]}
+    if cap is None:
+        nm = sum(1 for i in O.interactions if i.isReal and i.phys.meniscus)
+        out["bridges"] = nm
+        yade_runtime.emit_result(out)
+        return
+    st = cap.state()
+    out.update(bridges=st["n_bridges"], liquid=st["liquid"], budget_error=st["budget"]["balance_error"],
+               setup_seconds=cap.timings["setup_seconds"],
+               formations_short_of_liquid=st["budget"]["formations_short_of_liquid"],
+               formed=st["events"]["formed"], ruptured=st["events"]["ruptured"],
+               engine_cpu_ms_per_call=(cap.timings["cpu_seconds"] - c_eng0)
+               / max(cap.timings["steps"] - n_eng0, 1) * 1e3)
+    if variant != "capbridge":
+        yade_runtime.emit_result(out)
+        return
+    # restart cost: save (the engine's state goes into O.tags), load, the first step
+    # (restores the state), against an ordinary step
+    t0 = time.perf_counter()
+    O.saveTmp("bench")
+    out["save_tmp_seconds"] = time.perf_counter() - t0
+    out["state_kbytes"] = len(O.tags["capbridge:bench:state"]) / 1e3
+    t0 = time.perf_counter()
+    O.loadTmp("bench")
+    out["load_tmp_seconds"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    O.step()
+    out["first_step_after_load_seconds"] = time.perf_counter() - t0
+    out["restore_seconds"] = cap.timings.get("restore_seconds", float("nan"))
+    out["bridges_after_load"] = cap.model.n_bridges
+    t0 = time.perf_counter()
+    O.save(str(Path(files).parent / "wet_poly.yade.gz"))
+    out["save_file_seconds"] = time.perf_counter() - t0
+    yade_runtime.emit_result(out)
 
 
 def run_variant(variant, packing, files, steps, warmup, suction, factor):
@@ -212,15 +331,14 @@ def ensure_files():
     return d
 
 
-def choose_suction():
+def choose_suction(r_mean=R_MEAN, r_min=R_SMALL, r_max=R_LARGE):
     """Suction [Pa] whose contact bridge between mean grains holds V* = VSTAR, and the
     detection factor covering the largest rupture gap at that suction."""
     from capbridge.generator.young_laplace import solve_doublet, suction_rupture_distance
 
     p = solve_doublet(0.0, VSTAR, THETA)["pressure"]          # P* < 0: suction = -P*
     s_star = -float(p)
-    suction = s_star * GAMMA / R_MEAN
-    r_min, r_max = R_SMALL, R_LARGE
+    suction = s_star * GAMMA / r_mean
     # largest rupture gap / (R1 + R2) over the pairs of the packing (smallest grains)
     worst = 0.0
     for r1, r2 in ((r_min, r_min), (r_min, r_max), (r_max, r_max)):
@@ -234,6 +352,78 @@ def _env():
     env["OMP_NUM_THREADS"] = "1"
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     return env
+
+
+def wet_poly_main(argv):
+    """Driver of ``--wet-poly N [--steps S] [--json PATH]``: prints the markdown section."""
+    ap = argparse.ArgumentParser(prog="bench_yade.py --wet-poly")
+    ap.add_argument("n", type=int)
+    ap.add_argument("--steps", type=int, default=500)
+    ap.add_argument("--json", default=None)
+    a = ap.parse_args(argv)
+    from capbridge.dem_plugin import yade_runtime as yr
+
+    mach = machine()
+    t_start = time.time()
+    CACHE.mkdir(parents=True, exist_ok=True)
+    packing = CACHE / f"poly_packing_{a.n}.npz"
+    if not packing.exists():
+        subprocess.run([sys.executable, __file__, "--make-poly-packing", str(a.n), str(packing)],
+                       check=True, env=_env())
+    rad = np.load(packing)["rad"]
+    suction, factor, s_star = choose_suction(1e-3, float(rad.min()), float(rad.max()))
+    files = ensure_files()
+    res = {}
+    for v in ("law2", "capbridge", "capbridge_held", "capbridge10"):
+        args = ["--run-wet-poly", v, str(packing), str(files), str(a.steps),
+                str(max(50, a.steps // 5)), repr(suction), repr(factor)]
+        res[v] = yr.run_yade_script(__file__, args, timeout=3600).result
+        print(f"# {v}: {res[v]['ms_per_step']:.3f} ms/step", file=sys.stderr)
+    mach["load_after"] = [round(x, 2) for x in os.getloadavg()]
+    if a.json:
+        Path(a.json).write_text(json.dumps({"machine": mach, "results": res, "suction": suction,
+                                            "factor": factor}, indent=1))
+    law, cb = res["law2"], res["capbridge"]
+    held, c10 = res["capbridge_held"], res["capbridge10"]
+    lq = cb["liquid"]
+    text = f"""### YADE, issue 9: 2,000 polydisperse grains at 1 % water content ({_dt.date.today()})
+
+Command: `.venv/bin/python benchmarks/bench_yade.py --wet-poly {a.n} --steps {a.steps}`;
+machine: {mach['cpu']}, {mach['cores']} cores shared with other jobs (load average
+{mach['load_before'][0]} before, {mach['load_after'][0]} after: the absolute figures are
+inflated, the ratio is taken from runs made back to back); one YADE thread per process;
+YADE {mach['yade']}; one run per variant, whole run {(time.time() - t_start) / 60:.1f} min.
+
+Packing: {cb['n']:,} spheres, radius uniform in 1 mm +-30 % ({cb['radius_range'][0] * 1e3:.3f}-{cb['radius_range'][1] * 1e3:.3f} mm), deposited dry under gravity in a box,
+then both variants start from the same positions (gravity on, damping 0.4, dt = 0.5 x
+P-wave step); {a.steps} timed steps after {max(50, a.steps // 5)} warm-up steps; ms/step is CPU
+time of the YADE process.
+
+| variant | ms/step (CPU) | wall | bridges | real interactions |
+|---|---:|---:|---:|---:|
+| YADE `Law2_ScGeom_CapillaryPhys_Capillarity`, capbridge's theta = 30 deg files, suction {suction:.1f} Pa (V* = {VSTAR:g} at contact for mean grains), detection factor {factor:.3f} | {law['ms_per_step']:.2f} | {law['wall_ms_per_step']:.2f} | {law['bridges']:,} | {law['real_interactions']:,} |
+| `CapbridgeEngine(theta=30, water_content=0.01)`, defaults (conserved liquid on films, exact `addF` every step) | {cb['ms_per_step']:.2f} | {cb['wall_ms_per_step']:.2f} | {cb['bridges']:,} | {cb['real_interactions']:,} |
+| the same, `force_tolerance=1e-3` (held permanent forces) | {held['ms_per_step']:.2f} | {held['wall_ms_per_step']:.2f} | {held['bridges']:,} | {held['real_interactions']:,} |
+| the same, `refresh_every=10` | {c10['ms_per_step']:.2f} | {c10['wall_ms_per_step']:.2f} | {c10['bridges']:,} | {c10['real_interactions']:,} |
+
+- Ratio capbridge / YADE Law2: defaults **{cb['ms_per_step'] / law['ms_per_step']:.2f}x** (target <= 1.3x),
+  `force_tolerance=1e-3` {held['ms_per_step'] / law['ms_per_step']:.2f}x, `refresh_every=10` {c10['ms_per_step'] / law['ms_per_step']:.2f}x.
+  The engine's CPU per call: {cb['engine_cpu_ms_per_call']:.2f} ms (defaults), {held['engine_cpu_ms_per_call']:.2f} ms (held), {c10['engine_cpu_ms_per_call']:.2f} ms (every 10 steps).
+- Liquid at the end: {lq['bridges']:.4g} m^3 in bridges, {lq['films']:.4g} m^3 on films
+  ({lq['wet_grains']:,} wet grains); bridges formed {cb['formed']:,}, ruptured
+  {cb['ruptured']:,}; contacts refused for lack of liquid {cb['formations_short_of_liquid']:,}
+  (never retried until a film grows); ledger balance error {cb['budget_error']:.1e}.
+- Engine set-up (table slices for the scene's ratios 1-{cb['radius_range'][1] / cb['radius_range'][0]:.2f}): {cb['setup_seconds']:.2f} s, once.
+- Restart: `O.saveTmp` with the engine's state {cb['save_tmp_seconds'] * 1e3:.0f} ms (state
+  {cb['state_kbytes']:.0f} kB of text in `O.tags`), `O.loadTmp` {cb['load_tmp_seconds'] * 1e3:.0f} ms,
+  first step after the load {cb['first_step_after_load_seconds'] * 1e3:.0f} ms of which the
+  restore {cb['restore_seconds'] * 1e3:.0f} ms (an ordinary step: {cb['wall_ms_per_step']:.1f} ms);
+  {cb['bridges_after_load']:,} bridges after the load; `O.save` to a .yade.gz file
+  {cb['save_file_seconds']:.2f} s.
+- Wall bridges: not measured (no wall bridges in this engine yet).
+"""
+    print(text)
+    return 0
 
 
 def run_one(variant, packing, files, steps, warmup, suction, factor, timeout=3600):
@@ -409,6 +599,13 @@ def report(a, mach, results, suction, factor, s_star, seconds, command):
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--make-packing":
         make_packing(int(sys.argv[2]), sys.argv[3])
+    elif len(sys.argv) > 1 and sys.argv[1] == "--make-poly-packing":
+        make_poly_packing(int(sys.argv[2]), sys.argv[3])
+    elif len(sys.argv) > 1 and sys.argv[1] == "--run-wet-poly":
+        v, packing, files, steps, warmup, suction, factor = sys.argv[2:9]
+        run_wet_poly(v, packing, files, int(steps), int(warmup), float(suction), float(factor))
+    elif len(sys.argv) > 1 and sys.argv[1] == "--wet-poly":
+        sys.exit(wet_poly_main(sys.argv[2:]))
     elif len(sys.argv) > 1 and sys.argv[1] == "--run-variant":
         v, packing, files, steps, warmup, suction, factor = sys.argv[2:9]
         run_variant(v, packing, files, int(steps), int(warmup), float(suction), float(factor))
