@@ -745,9 +745,20 @@ class BridgeModel:
         self.initialised = True
 
     # --------------------------------------------------------------------------- step
+    def pair_vectors(self, pos, i, j):
+        """Centre-to-centre vectors i -> j [m] of grain pairs, (m, 3).
+
+        The one place where the engine turns positions into bridge geometry: a periodic
+        cell (the shift to the nearest image) or a wall partner (the foot of the
+        perpendicular on the wall) belongs here, and every gap, rupture test,
+        formation test and force direction follows."""
+        d = pos[j]
+        d -= pos[i]
+        return d
+
     def _cand_gaps(self, pos):
         ci, cj = self.cand.i, self.cand.j
-        d = pos[cj] - pos[ci]
+        d = self.pair_vectors(pos, ci, cj)
         return np.sqrt(np.einsum("ij,ij->i", d, d)) - self.radii[ci] - self.radii[cj]
 
     def update(self, pos, step=0, form=True, initial_pairs=None):
@@ -766,8 +777,7 @@ class BridgeModel:
             self.cidx = self.cand.index_of(self.keys)
         self._touched = np.empty(0, np.intp)
         # ruptures
-        d = pos[self.bj]
-        d -= pos[self.bi]
+        d = self.pair_vectors(pos, self.bi, self.bj)
         dist = np.sqrt(np.einsum("ij,ij->i", d, d))
         gap = dist - self.rsum
         broken = gap > self.d_rupt_si
@@ -787,15 +797,14 @@ class BridgeModel:
         if form and self.cand.i.size:
             # only pairs without a bridge, and not refused (no retry until a film grows)
             idx = np.flatnonzero(~(self.cand.has_bridge | self.cand.refused))
-            dc = pos[self.cand.j[idx]]
-            dc -= pos[self.cand.i[idx]]
+            dc = self.pair_vectors(pos, self.cand.i[idx], self.cand.j[idx])
             idx = idx[np.einsum("ij,ij->i", dc, dc) <= self.cand.reach2[idx]]
             if idx.size:
                 n0 = self.n_bridges
                 n_form, refused = self._form(self.cand.i[idx], self.cand.j[idx], step)
                 self.cand.refused[idx[refused]] = True
                 if n_form:
-                    nd = pos[self.bj[n0:]] - pos[self.bi[n0:]]
+                    nd = self.pair_vectors(pos, self.bi[n0:], self.bj[n0:])
                     nds = np.sqrt(np.einsum("ij,ij->i", nd, nd))
                     d = np.vstack([d, nd])
                     dist = np.concatenate([dist, nds])
