@@ -140,19 +140,21 @@ def _start(beta1, theta1):
     return np.cos(beta1), np.sin(beta1), beta1 + theta1 - 0.5 * np.pi
 
 
-def _integrate(p_mid, beta1, L, pt, settings):
-    """Integrate k meridians sharing L (arrays p_mid, beta1 of shape (k,)).
+def _integrate(p_mid, beta1, L, pt, settings, b=None):
+    """Integrate k meridians sharing L (arrays p_mid, beta1 and b, of shape (k,); b
+    defaults to the point's).
 
     Returns (end state (6, k), min y along each meridian, ok).  ``ok`` is False when the
     integration fails or a meridian reaches the axis (y <= 1e-9: no bridge).
     """
     p_mid, beta1 = np.atleast_1d(p_mid).astype(float), np.atleast_1d(beta1).astype(float)
     k = p_mid.size
+    b = np.full(k, pt["b"]) if b is None else np.asarray(b, float)
     x0, y0, psi0 = _start(beta1, pt["theta1"])
     u0 = np.concatenate([x0, y0, psi0, np.zeros(3 * k)])
     if not (L > 0 and np.all(y0 > 0) and np.all(np.isfinite(u0))):
         return np.full((_NQ, k), np.nan), np.full(k, np.nan), False
-    f = _rhs(L, p_mid, pt["b"], pt["x_mid"])
+    f = _rhs(L, p_mid, b, pt["x_mid"])
 
     def axis(_t, u):              # a meridian reaching the axis: no bridge
         return np.min(u[_Y * k:(_Y + 1) * k]) - 1e-9
@@ -215,16 +217,21 @@ def _end_values(end, beta1, pt):
                 volume=vol / pt["volume"] - 1.0, beta2=beta2, vol=vol)
 
 
-def _residuals(z, pt, settings, jac=True):
-    """Residuals r (3,), Jacobian J (3, 3) (columns P_m, b1, L) and the end state."""
+def _residuals(z, pt, settings, jac=True, bond_column=False):
+    """Residuals r (3,), Jacobian J (3, 3) (columns P_m, b1, L; with ``bond_column`` a
+    fourth column d/db, b = -Bo gravity_axis) and the end state."""
     pm, b1, L = z
+    b = pt["b"]
     if jac:
-        eps = settings.fd_step * (1.0 + np.abs(z[:2]))
-        pms = np.array([pm, pm + eps[0], pm])
-        b1s = np.array([b1, b1, b1 + eps[1]])
+        eps = settings.fd_step * (1.0 + np.abs(np.array([pm, b1, b])))
+        pms = np.array([pm, pm + eps[0], pm, pm])
+        b1s = np.array([b1, b1, b1 + eps[1], b1])
+        bs = np.array([b, b, b, b + eps[2]])
+        if not bond_column:
+            pms, b1s, bs = pms[:3], b1s[:3], bs[:3]
     else:
-        pms, b1s = np.array([pm]), np.array([b1])
-    end, ymin, ok = _integrate(pms, b1s, L, pt, settings)
+        pms, b1s, bs = np.array([pm]), np.array([b1]), np.array([b])
+    end, ymin, ok = _integrate(pms, b1s, L, pt, settings, bs)
     if not ok:
         return None, None, None
     v = _end_values(end, b1s, pt)
@@ -235,13 +242,14 @@ def _residuals(z, pt, settings, jac=True):
         return None, None, None
     if not jac:
         return r, None, info
-    J = np.empty((3, 3))
-    for col in range(2):
-        diff = np.array([v["angle"][col + 1] - v["angle"][0],
-                         v["on2"][col + 1] - v["on2"][0],
-                         v["volume"][col + 1] - v["volume"][0]])
+    J = np.empty((3, 4 if bond_column else 3))
+    for col, j in ((0, 1), (1, 2), (3, 3)):
+        if j >= len(pms):
+            continue
+        diff = np.array([v["angle"][j] - v["angle"][0], v["on2"][j] - v["on2"][0],
+                         v["volume"][j] - v["volume"][0]])
         diff[0] = _wrap(diff[0])
-        J[:, col] = diff / eps[col]
+        J[:, col] = diff / eps[min(col, 2)]
     J[:, 2] = _d_dL(end[:, 0], pm, pt)
     return r, J, info
 
@@ -295,44 +303,57 @@ def _forces(z, info, pt):
 # --------------------------------------------------------------------------------------
 
 
-def _newton(z, pt, settings):
-    """Damped Newton on (P_m, b1, L).  Returns (z, converged, iterations, J, info)."""
-    z = np.array(z, float)
-    r, J, info = _residuals(z, pt, settings)
+def _damped_newton(system, w, cap, settings, max_iter):
+    """Damped Newton on ``system(w) -> (r, J, info)`` (None where w gives no profile).
+
+    Steps are clipped to ``cap(w)`` per unknown and halved until the max-norm of the
+    residual decreases.  Returns (w, converged, iterations, J, info).
+    """
+    w = np.array(w, float)
+    r, J, info = system(w)
     if r is None:
-        return z, False, 0, None, None
+        return w, False, 0, None, None
     norm = np.max(np.abs(r))
-    for it in range(1, settings.max_iter + 1):
+    for it in range(1, max_iter + 1):
         if norm < settings.tol:
-            return z, True, it - 1, J, info
+            return w, True, it - 1, J, info
         try:
-            dz = -np.linalg.solve(J, r)
+            dw = -np.linalg.solve(J, r)
         except np.linalg.LinAlgError:
-            return z, False, it, J, info
-        # clip: relative in P_m and L, absolute in b1 (as the zero-gravity solver)
-        cap = np.array([0.5 * (1.0 + abs(z[0])), 0.15, 0.5 * abs(z[2]) + 1e-3])
-        dz *= min(1.0, float(np.min(cap / np.maximum(np.abs(dz), 1e-300))))
+            return w, False, it, J, info
+        dw *= min(1.0, float(np.min(cap(w) / np.maximum(np.abs(dw), 1e-300))))
         lam, accepted = 1.0, False
-        for _ in range(14):
-            zt = z + lam * dz
-            rt, Jt, it_info = _residuals(zt, pt, settings)
+        for _ in range(10):
+            wt = w + lam * dw
+            rt, Jt, info_t = system(wt)
             if rt is not None:
                 nt = np.max(np.abs(rt))
                 if nt < (1.0 - 1e-4 * lam) * norm or nt < settings.tol:
-                    z, r, J, info, norm, accepted = zt, rt, Jt, it_info, nt, True
+                    w, r, J, info, norm, accepted = wt, rt, Jt, info_t, nt, True
                     break
             lam *= 0.5
         if not accepted:
             # at the integrator's round-off floor a full step no longer decreases |r|
-            if norm < 1e3 * settings.tol and np.all(np.abs(dz) <= 1e-12 * (1 + np.abs(z))):
-                return z, True, it, J, info
-            return z, False, it, J, info
-    return z, norm < settings.tol, settings.max_iter, J, info
+            floor = norm < 1e3 * settings.tol and np.all(np.abs(dw) <= 1e-12 * (1 + np.abs(w)))
+            return w, bool(floor), it, J, info
+    return w, norm < settings.tol, max_iter, J, info
+
+
+def _cap_z(z):
+    """Largest Newton step: relative in P_m and L, absolute in b1 (as without gravity)."""
+    return np.array([0.5 * (1.0 + abs(z[0])), 0.15, 0.5 * abs(z[2]) + 1e-3])
+
+
+def _newton(z, pt, settings, max_iter=None):
+    """Damped Newton on (P_m, b1, L) at the point's Bo.  Returns (z, ok, its, J, info)."""
+    return _damped_newton(lambda zz: _residuals(zz, pt, settings), z, _cap_z, settings,
+                          max_iter or settings.max_iter)
 
 
 def _indicator(J):
-    """Stability indicator: -det of the Jacobian (positive on the stable branch)."""
-    return -np.linalg.det(J)
+    """Stability indicator: -det of the 3 x 3 Jacobian in (P_m, b1, L), positive on the
+    stable branch (module docstring)."""
+    return -np.linalg.det(J[:, :3])
 
 
 def _point_dict(gap, volume, theta1, theta2, ratio, bond, gravity_axis):
@@ -350,43 +371,137 @@ def _zero_gravity_start(pt, zg):
     return np.array([2.0 * h, b1, L])
 
 
-def _continue_in_bond(z0, pt, settings):
-    """From the zero-gravity solution z0 to the target Bo by continuation.
+@dataclasses.dataclass
+class _Path:
+    """Outcome of the continuation of one point from Bo = 0 to its target."""
 
-    Returns (z, info, J, ok, iterations, steps).
+    status: Status = Status.NOT_CONVERGED
+    z: np.ndarray = None
+    J: np.ndarray = None
+    info: dict = None
+    iterations: int = 0
+    steps: int = 0
+    rupture_bond: float = np.nan     #: Bo of the fold where the branch ends (RUPTURED)
+
+
+def _continue_in_bond(z0, pt, settings):
+    """From the zero-gravity solution z0 to the target Bo.
+
+    Natural continuation in b (steps <= ``bond_step``, secant predictor); where it stalls
+    (near a fold, where the Jacobian becomes singular) pseudo-arclength continuation in
+    (P_m, b1, L, b) takes over and either reaches the target or passes the fold of the
+    branch (the indicator changes sign while b turns back): the bridge has ruptured at
+    the Bo of the fold, below the target.
     """
-    target = pt["b"]
-    sign = np.sign(target) if target != 0 else 1.0
-    done, z = 0.0, np.array(z0, float)
-    prev = None                                  # (|b|, z) of the step before
-    step = min(abs(target), settings.bond_step)
-    iters, steps = 0, 0
-    p = dict(pt, b=0.0)
+    path = _Path()
+    target = abs(pt["b"])
+    sign = 1.0 if pt["b"] >= 0 else -1.0
     # polish at Bo = 0 (the ODE and the roulette agree to ~1e-11: one or two steps)
-    z, ok, it, J, info = _newton(z, p, settings)
-    iters += it
+    z, ok, it, J, info = _newton(z0, dict(pt, b=0.0), settings)
+    path.iterations += it
     if not ok or _indicator(J) <= 0:
-        return z, info, J, False, iters, steps
-    while done < abs(target):
-        nxt = min(done + step, abs(target))
-        zp = z if prev is None else z + (z - prev[1]) * (nxt - done) / (done - prev[0])
-        p = dict(pt, b=sign * nxt)
-        zn, ok, it, Jn, info_n = _newton(zp, p, settings)
-        iters += it
-        steps += 1
-        ok = ok and _indicator(Jn) > 0
-        # stay on the branch: the corrector must not jump far from the predictor
+        return path
+    hist = [(0.0, z)]
+    done = 0.0
+    step = min(target, settings.bond_step)
+    while done < target:
+        nxt = min(done + step, target)
+        zp = z if len(hist) < 2 else z + (z - hist[-2][1]) * (nxt - done) / (done - hist[-2][0])
+        zn, ok, it, Jn, info_n = _newton(zp, dict(pt, b=sign * nxt), settings, max_iter=8)
+        path.iterations += it
+        path.steps += 1
+        # stable branch only; the corrector must not jump far from the predictor
+        ok = (ok and _indicator(Jn) > 0
+              and bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp)))))
         if ok:
-            ok = bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp))))
-        if ok:
-            prev = (done, z)
             done, z, J, info = nxt, zn, Jn, info_n
+            hist.append((done, z))
             step = min(1.5 * step, settings.bond_step)
-        else:
-            step *= 0.5
-            if step < 1e-4 * max(1.0, abs(target)):
-                return z, info, J, False, iters, steps
-    return z, info, J, True, iters, steps
+            continue
+        step *= 0.5
+        if step < 0.2 * settings.bond_step:      # stalled twice: near a fold
+            return _arclength(hist, pt, settings, path)
+    path.status, path.z, path.J, path.info = Status.CONVERGED, z, J, info
+    return path
+
+
+def _arclength(hist, pt, settings, path, max_steps=80):
+    """Pseudo-arclength continuation in w = (P_m / s0, b1, L / s2, |b|) from the last
+    accepted states ``hist`` towards the target |b| (see :func:`_continue_in_bond`)."""
+    target = abs(pt["b"])
+    sign = 1.0 if pt["b"] >= 0 else -1.0
+    z = hist[-1][1]
+    scale = np.array([1.0 + abs(z[0]), 1.0, abs(z[2]), 1.0])
+
+    def point(w):
+        return dict(pt, b=sign * w[3])
+
+    def tangent(J4, prev=None):
+        # null vector of d(residuals)/dw (3 x 4) in scaled unknowns
+        Jw = J4 * scale[None, :] * np.array([1, 1, 1, sign])[None, :]
+        t = np.linalg.svd(Jw)[2][-1]
+        if prev is not None:
+            return t if t @ prev >= 0 else -t
+        return t if t[3] >= 0 else -t            # start towards larger Bo
+
+    w = np.append(z / scale[:3], hist[-1][0])
+    r, J4, info = _residuals(z, point(w), settings, bond_column=True)
+    if r is None:
+        return path
+    t = tangent(J4)
+    ds = 0.05
+    for _ in range(max_steps):
+        wp = w + ds * t
+
+        def system(ww, wp=wp, t=t):
+            zz = ww[:3] * scale[:3]
+            rr, JJ, ii = _residuals(zz, point(ww), settings, bond_column=True)
+            if rr is None:
+                return None, None, None
+            Jw = JJ * scale[None, :] * np.array([1, 1, 1, sign])[None, :]
+            return (np.append(rr, t @ (ww - wp)), np.vstack([Jw, t]), (ii, JJ))
+
+        wn, ok, it, _, extra = _damped_newton(
+            system, wp, lambda ww: np.array([0.5, 0.15, 0.5, 0.5]), settings, 12)
+        path.iterations += it
+        path.steps += 1
+        if not ok:
+            ds *= 0.5
+            if ds < 1e-4:
+                return path
+            continue
+        info, J4 = extra
+        ind = _indicator(J4)
+        if wn[3] >= target and ind > 0:
+            # past the target on the stable branch: solve at the target itself
+            f = (target - w[3]) / (wn[3] - w[3])
+            z0 = ((1 - f) * w[:3] + f * wn[:3]) * scale[:3]
+            zt, okt, it, Jt, info_t = _newton(z0, pt, settings, max_iter=12)
+            path.iterations += it
+            if okt and _indicator(Jt) > 0:
+                path.status, path.z, path.J, path.info = Status.CONVERGED, zt, Jt, info_t
+            return path
+        t_new = tangent(J4, t)
+        if ind <= 0:
+            if t_new[3] >= 0:
+                return path                       # not a fold: no verdict
+            # a fold between w and wn: the branch turns back in Bo there.  Its Bo from
+            # the cubic Hermite interpolant of b(sigma) on the step (slopes t[3], t_new[3])
+            tau = np.linspace(0.0, 1.0, 401)
+            dsig = np.linalg.norm(wn - w)
+            h = (w[3] * (2 * tau**3 - 3 * tau**2 + 1) + wn[3] * (-2 * tau**3 + 3 * tau**2)
+                 + dsig * t[3] * (tau**3 - 2 * tau**2 + tau) + dsig * t_new[3] * (tau**3 - tau**2))
+            b_fold = float(np.max(h))
+            if b_fold >= target:                  # the target lies before the fold
+                ds *= 0.25
+                if ds < 1e-4:
+                    return path
+                continue
+            path.status, path.rupture_bond = Status.RUPTURED, b_fold
+            return path
+        t, w = t_new, wn
+        ds = min(1.5 * ds, 0.2)
+    return path
 
 
 # --------------------------------------------------------------------------------------
@@ -394,7 +509,8 @@ def _continue_in_bond(z0, pt, settings):
 # --------------------------------------------------------------------------------------
 
 _KEYS = ("force", "force1", "force2", "weight", "pressure", "pressure_centre1", "beta1",
-         "beta2", "neck_radius", "area", "energy", "volume", "gap", "bond", "indicator")
+         "beta2", "neck_radius", "area", "energy", "volume", "gap", "bond", "indicator",
+         "rupture_bond")
 
 
 def _check_gravity_axis(gravity_axis):
@@ -482,21 +598,30 @@ def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
     zg = solve_doublet(d, v, t1, R, t2)           # the zero-gravity starts, vectorised
     for i in range(n):
         if zg["status"][i] != Status.CONVERGED:
-            continue                               # ruptured without gravity: not reused
+            # ruptured without gravity: exact at Bo = 0; with gravity the rupture
+            # distance moves (either way for unequal grains), so no verdict there
+            if zg["status"][i] == Status.RUPTURED and bo[i] == 0.0:
+                out["status"][i] = Status.RUPTURED
+                out["force"][i] = out["force1"][i] = out["force2"][i] = 0.0
+            continue
         pt = _point_dict(d[i], v[i], np.radians(t1[i]), np.radians(t2[i]), R[i], bo[i],
                          ga[i])
         z0 = _zero_gravity_start(pt, {k: zg[k][i] for k in ("pressure", "beta1", "beta2")})
         if not np.all(np.isfinite(z0)):
             continue
-        z, info, J, ok, iters, steps = _continue_in_bond(z0, pt, settings)
-        out["iterations"][i], out["steps"][i] = iters, steps
-        if not ok:
+        path = _continue_in_bond(z0, pt, settings)
+        out["iterations"][i], out["steps"][i] = path.iterations, path.steps
+        out["status"][i] = path.status
+        if path.status == Status.RUPTURED:
+            for k in ("force", "force1", "force2"):
+                out[k][i] = 0.0
+            out["rupture_bond"][i] = path.rupture_bond
+        if path.status != Status.CONVERGED:
             continue
-        res = _forces(z, info, pt)
+        res = _forces(path.z, path.info, pt)
         for k, val in res.items():
             out[k][i] = val
-        out["indicator"][i] = _indicator(J)
-        out["status"][i] = Status.CONVERGED
+        out["indicator"][i] = _indicator(path.J)
     return {k: val.reshape(shape) for k, val in out.items()}
 
 
