@@ -227,10 +227,24 @@ def install_save_hooks():
     om._capbridge_hooked = True
 
 
+def _jsonable(v):
+    """Parameters as plain JSON values (numpy scalars and arrays to Python)."""
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    return v
+
+
 def _theta_to_json(theta):
-    """Contact angles as JSON (material keys keep their type: label or id)."""
+    """Contact angles as JSON (material keys keep their type: label or id; a key of
+    another type, e.g. a Material object, cannot be saved: None)."""
     if isinstance(theta, dict):
-        return {"by_material": [[k, float(v)] for k, v in theta.items()]}
+        if not all(isinstance(k, (str, int)) for k in theta):
+            return None
+        return {"by_material": [[_jsonable(k), float(v)] for k, v in theta.items()]}
     return float(theta)
 
 
@@ -365,9 +379,11 @@ class CapbridgeEngine:
         self._applied = np.empty((0, 3))      # our share of each grain's permanent force
         self._erased = 0
         self._parts = {}                      # extra state: name -> (get, set)
-        self._params = {k: v for k, v in locals().items()
-                        if k in ENGINE_PARAMETERS and k not in ("table",)}
-        self._params["table"] = str(self.table) if isinstance(self.table, (str, Path)) else None
+        self._params = {k: _jsonable(v) for k, v in locals().items()
+                        if k in ENGINE_PARAMETERS and k not in ("table", "theta")}
+        # the shipped table by name, so that a saved scene loads on another machine
+        self._params["table"] = ("default" if table is None else
+                                 str(table) if isinstance(table, (str, Path)) else None)
         self._params["theta"] = _theta_to_json(theta)
         old = _REGISTRY.get(self.label)
         if old is not None and old is not self and old._in_scene():
@@ -392,12 +408,16 @@ class CapbridgeEngine:
                 f"no CapbridgeEngine {label!r} in this process and none saved in the scene: "
                 f"create it (CapbridgeEngine(..., label={label!r})) before running")
         params = json.loads(text)
-        if params.get("table") is None:
+        if params.get("table") is None or params.get("theta") is None:
+            what = ("a table object" if params.get("table") is None
+                    else "Material objects as keys of theta")
             raise CapbridgeStateError(
-                f"CapbridgeEngine {label!r} was made with a table object, which the scene "
-                f"cannot hold: create it again with the same table (label={label!r}) after "
-                "O.load and before running; its state is then read from the scene")
+                f"CapbridgeEngine {label!r} was made with {what}, which the scene cannot "
+                f"hold: create it again the same way (label={label!r}) after O.load and "
+                "before running; its state is then read from the scene")
         params["theta"] = _theta_from_json(params["theta"])
+        if params["table"] == "default":
+            params["table"] = None
         return cls(**params)
 
     def register_state(self, name, get, set_):
@@ -432,10 +452,11 @@ class CapbridgeEngine:
         self._live = None
         try:
             yade, _ = _yade()
-            tags = yade.Omega().tags
-            for what in ("state", "live"):
-                if _tag_get(yade.Omega(), _tag_key(self.label, what)) is not None:
-                    del tags[_tag_key(self.label, what)]
+            O = yade.Omega()
+            # O.tags cannot delete a key: an empty state means "none"
+            if _tag_get(O, _tag_key(self.label, "state")) is not None:
+                O.tags[_tag_key(self.label, "state")] = ""
+                O.tags[_tag_key(self.label, "live")] = ""
         except ImportError:
             pass
 
@@ -658,7 +679,7 @@ class CapbridgeEngine:
                 self._check_engines(O)
             return
         self._check_engines(O)
-        stash = _tag_get(O, _tag_key(self.label, "state"))
+        stash = _tag_get(O, _tag_key(self.label, "state")) or None
         if stash is not None and live is not None and live.startswith("saved:"):
             self._restore(O, stash)
         elif self.model is None:
