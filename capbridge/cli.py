@@ -123,6 +123,8 @@ def cmd_generate_doublet(args):
                                                    save_doublet_table)
     from capbridge.surrogate.doublet import DoubletSurrogate, holdout_errors
 
+    import shlex
+
     from capbridge.generator.netcdf_io import check_table_target
     from capbridge.surrogate.doublet import DEFAULT_REFINE, DEFAULT_THETA_STEP
 
@@ -131,8 +133,6 @@ def cmd_generate_doublet(args):
     # before hours of work: can the table be written, and would it replace another grid?
     check_table_target(args.output, {k: list(v) for k, v in grid.as_dict().items()},
                        overwrite=args.overwrite, flag="--overwrite")
-    import shlex
-
     words = getattr(args, "argv", sys.argv[1:])
     command = ("capbridge " + " ".join(shlex.quote(w) for w in words)
                if args.command is None else args.command)
