@@ -141,12 +141,209 @@ def run_evolver(cases=UNEQUAL_CASES, cache=CACHE):
     return done
 
 
+def _rate(fn, n, repeat=3):
+    """(evaluations per CPU second, per wall second): best of ``repeat`` runs of fn().
+
+    CPU time of this process is the per-core figure on a shared machine (the wall clock
+    also counts the time other jobs hold the core); both are reported."""
+    cpu = wall = np.inf
+    for _ in range(repeat):
+        w0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        cpu = min(cpu, time.process_time() - c0)
+        wall = min(wall, time.perf_counter() - w0)
+    return n / cpu, n / wall
+
+
+def _random_points(sur, n, seed):
+    """Gaps, theta uniform in the table; v uniform 1 % inside its range."""
+    rng = np.random.default_rng(seed)
+    g = rng.uniform(sur.gaps_[0], sur.gaps_[-1], (3, n))
+    t = rng.uniform(sur.theta_[0], sur.theta_[-1], n)
+    span = sur.v_[-1] - sur.v_[0]
+    v = rng.uniform(sur.v_[0] + 0.01 * span, sur.v_[-1] - 0.01 * span, n)
+    return g, t, v * sur.coalescence_volume(*g, t)["volume_coalescence"]
+
+
+def throughput(sur, n, seed=1):
+    """Lookup rates of the triplet and doublet surrogates on n random points each."""
+    from capbridge.surrogate.doublet import DoubletSurrogate
+
+    g, t, V = _random_points(sur, n, seed)
+    sur.predict(*(x[:10] for x in g), V[:10], t[:10])
+    trip = _rate(lambda: sur.predict(*g, V, t), n)
+    ans = sur.predict(*g, V, t)["status"]
+    dsur = DoubletSurrogate().fit(ROOT / "data" / "doublet_table.nc")
+    rng = np.random.default_rng(seed)
+    th = rng.uniform(dsur.theta_[0], dsur.theta_[-1], n)
+    vol = np.exp(rng.uniform(np.log(dsur.volume_[0]), np.log(dsur.volume_[-1]), n))
+    gap = dsur.predict(0.0, vol, th)["rupture_gap"] * (1 - rng.uniform(0.2, 1.0, n) ** 2)
+    dsur.predict(gap[:10], vol[:10], th[:10])
+    doub = _rate(lambda: dsur.predict(gap, vol, th), n)
+    m = min(n, 100_000)
+    C = _centres(g[:, :m])
+    vec = _rate(lambda: sur.predict_vectors(C, V[:m], t[:m]), m)
+    return {"n": n, "triplet": trip, "doublet": doub, "vectors": vec, "m_vectors": m,
+            "answered": float(np.mean(np.isin(ans, (0, 7))))}
+
+
+def _centres(g):
+    """Equal unit spheres with gaps g (3, n): centres (n, 3, 3)."""
+    a, b, c = 2 + g
+    x3 = (a * a + b * b - c * c) / (2 * a)
+    C = np.zeros((g.shape[1], 3, 3))
+    C[:, 1, 0] = a
+    C[:, 2, 0], C[:, 2, 2] = x3, np.sqrt(b * b - x3 * x3)
+    return C
+
+
+def accuracy(table, coalescence_table=None):
+    """Held-out errors per method and lookup mode; refinement error of the default grid."""
+    from capbridge.surrogate.triplet import DEFAULT_REFINE, TripletSurrogate, holdout_errors
+
+    rows = {}
+    for method in ("cubic", "linear"):
+        s = TripletSurrogate(method=method).fit(table, coalescence_table=coalescence_table)
+        for by in ("volume", "v"):
+            e = holdout_errors(s, by=by)
+            rows[(method, by)] = (e["median_rel_error"], e["max_rel_error"], e["n"],
+                                  int(e["used"].size))
+    base = TripletSurrogate().fit(table, coalescence_table=coalescence_table)
+    fine = TripletSurrogate(refine=tuple(2 * r for r in DEFAULT_REFINE),
+                            out_of_range="clip").fit(table,
+                                                     coalescence_table=coalescence_table)
+    g, t, V = _random_points(base, 5000, 2)
+    a, b = base.predict(*g, V, t), fine.predict(*g, V, t)
+    ok = np.isin(a["status"], (0, 7)) & np.isin(b["status"], (0, 7))
+    d = np.max([np.abs(a[n][ok] / b[n][ok] - 1) for n in ("f12", "f13", "f23")], 0)
+    return rows, {"refine": DEFAULT_REFINE, "median": float(np.median(d)),
+                  "max": float(np.max(d)), "n": int(ok.sum())}, base
+
+
+def unequal(sur, cache=CACHE):
+    """Errors of each unequal-radii scheme against the cached Evolver results."""
+    from capbridge.surrogate.triplet import UNEQUAL_SCHEMES
+    from capbridge.validation import CapbridgeInputError
+
+    data = json.loads(cache.read_text())
+    out = {}
+    for scheme in UNEQUAL_SCHEMES:
+        rel, ctrl, skipped, vec = [], [], [], []
+        for key, e in data.items():
+            if "pair_forces" not in e:
+                skipped.append((key, e["status"]))
+                continue
+            try:
+                r = sur.predict_vectors(np.array(e["centres"]), e["volume"], e["theta"],
+                                        radii=np.array(e["radii"]), unequal=scheme)
+            except CapbridgeInputError as exc:
+                skipped.append((key, str(exc)[:80]))
+                continue
+            f = np.array([float(r[n]) for n in ("f12", "f13", "f23")])
+            ref = np.array(e["pair_forces"])
+            err = np.abs(f / ref - 1)
+            F, Fe = r["forces"], np.array(e["forces"])
+            verr = float(np.max(np.linalg.norm(F - Fe, axis=1)) /
+                         np.max(np.linalg.norm(Fe, axis=1)))
+            if len(set(e["radii"])) == 1:
+                ctrl.extend(err)
+            else:
+                rel.extend(err)
+                vec.append(verr)
+        rel = np.array(rel)
+        out[scheme] = {"median": float(np.median(rel)) if rel.size else np.nan,
+                       "max": float(np.max(rel)) if rel.size else np.nan,
+                       "n_triplets": len(vec), "vector_max": max(vec) if vec else np.nan,
+                       "control_max": float(np.max(ctrl)) if ctrl else np.nan,
+                       "skipped": skipped}
+    return out, data
+
+
+def bench(args):
+    from capbridge.surrogate.triplet import DEFAULT_REFINE, UNEQUAL_SCHEMES
+
+    t0 = time.perf_counter()
+    rows, refine_err, sur = accuracy(args.table, args.coalescence_table)
+    tp = throughput(sur, args.n)
+    une, data = unequal(sur)
+    cpu = [e["cpu_time"] for e in data.values()]
+    load = os.getloadavg()
+    lines = [
+        f"### Triplet surrogate ({time.strftime('%Y-%m-%d')})", "",
+        f"Command: `.venv/bin/python benchmarks/bench_triplet.py --write` (table "
+        f"`{Path(args.table).name}`" + (f", coalescence table "
+                                         f"`{Path(args.coalescence_table).name}`"
+                                         if args.coalescence_table else "") +
+        f"); machine: {platform.processor() or platform.machine()}, {os.cpu_count()} "
+        f"cores shared with other jobs (load average {load[0]:.1f}), one thread "
+        f"(OPENBLAS/OMP/MKL_NUM_THREADS=1), numpy {np.__version__}, Python "
+        f"{platform.python_version()}; whole run {time.perf_counter() - t0:.0f} s.", "",
+        f"Lookup rate, {tp['n']:,} random points each (triplet: gaps, theta uniform in "
+        f"the table, v uniform 1 % inside its range; {100 * tp['answered']:.1f} % of them "
+        "in cells with a result; doublet: the benchmark points of bench_doublet.py). "
+        "Per CPU second of this process (the per-core figure on a shared machine) and "
+        "per wall second:", "",
+        "| lookup | evaluations / CPU s | evaluations / wall s |", "|---|---:|---:|",
+        f"| TripletSurrogate.predict (any geometry, V*, theta) | {tp['triplet'][0]:,.0f} | "
+        f"{tp['triplet'][1]:,.0f} |",
+        f"| TripletSurrogate.predict_vectors ({tp['m_vectors']:,} points) | "
+        f"{tp['vectors'][0]:,.0f} | {tp['vectors'][1]:,.0f} |",
+        f"| DoubletSurrogate.predict (any theta), same run | {tp['doublet'][0]:,.0f} | "
+        f"{tp['doublet'][1]:,.0f} |", "",
+        "Held-out Evolver points of the table (one refinement level finer), relative "
+        "error of the pair forces f_ij (every pair of every point with a result):", "",
+        "| method | looked up by | median | max | pair forces (points used / stored) |",
+        "|---|---|---:|---:|---:|"]
+    for (method, by), (med, mx, n, tot) in rows.items():
+        name = {"cubic": f"splines, refine {DEFAULT_REFINE}, simplex lookup",
+                "linear": "multilinear on the raw grid"}[method]
+        mode = {"volume": "V* (V*_coal interpolated too)", "v": "v = V*/V*_coal (exact)"}[by]
+        lines.append(f"| {name} | {mode} | {med:.2e} | {mx:.2e} | {3 * n} ({n} / {tot}) |")
+    lines += [
+        "", f"Refinement error of the default fine grid (against a grid twice as fine, "
+        f"{refine_err['n']} random points): median {refine_err['median']:.1e}, max "
+        f"{refine_err['max']:.1e} relative in f_ij.", "",
+        f"Unequal radii: {len(data)} coalesced triplets solved by Surface Evolver "
+        f"(`benchmarks/triplet_unequal_evolver.json`, `bench_triplet.py evolver`: level "
+        f"3, ftol = etol = 1e-2; {np.median(cpu):.1f} CPU s per triplet, median); radii "
+        "ratios up to 2, one equal-radii control; relative error of f_ij over the "
+        "unequal triplets:", "",
+        "| scheme | median | max | max force-vector error / max |F_i| | equal control, max | triplets |",
+        "|---|---:|---:|---:|---:|---:|"]
+    for scheme, e in une.items():
+        lines.append(f"| {scheme}: {UNEQUAL_SCHEMES[scheme]} | {e['median']:.2e} | "
+                     f"{e['max']:.2e} | {e['vector_max']:.2e} | {e['control_max']:.2e} | "
+                     f"{e['n_triplets']} |")
+    for scheme, e in une.items():
+        for key, why in e["skipped"]:
+            lines.append(f"- {scheme}: skipped {key}: {why}")
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.write:
+        _write_section(HERE / "RESULTS.md", text)
+    return 0
+
+
+def _write_section(path, text):
+    """Replace this benchmark's section of RESULTS.md (or append it)."""
+    old = path.read_text()
+    head = "### Triplet surrogate"
+    start = old.find(head)
+    if start < 0:
+        new = old.rstrip("\n") + "\n\n" + text
+    else:
+        end = old.find("\n### ", start + len(head))
+        new = old[:start] + text + ("" if end < 0 else old[end:])
+    path.write_text(new)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("step", nargs="?", default="bench", choices=("bench", "evolver"))
     p.add_argument("--table", default=os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
                                                      str(ROOT / "data" / "triplet_table.nc")))
     p.add_argument("--coalescence-table", default=None)
+    p.add_argument("--n", type=int, default=1_000_000, help="points of the rate runs")
     p.add_argument("--write", action="store_true",
                    help="append the section to benchmarks/RESULTS.md")
     args = p.parse_args(argv)

@@ -13,7 +13,7 @@ import xarray as xr
 from capbridge.generator.netcdf_io import read_table
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.triplet import (LOWER_ENERGY_STATES, PAIR_NAMES, PAIRS,
-                                         _SORTING_NETWORKS, TripletSurrogate, _Grid,
+                                         TripletSurrogate, _Descending, _Grid,
                                          default_table, holdout_errors)
 from capbridge.validation import CapbridgeInputError
 
@@ -166,15 +166,17 @@ def test_linear_method_reproduces_multilinear(table):
 
 
 def test_kernels_exact_on_linear_functions():
-    """Simplex and multilinear kernels reproduce a linear function exactly; the sorting
-    networks sort."""
-    for k, net in _SORTING_NETWORKS.items():
-        for p in itertools.product(range(k), repeat=k):
-            a = list(p)
-            for i, j in net:
-                if a[i] < a[j]:
-                    a[i], a[j] = a[j], a[i]
-            assert a == sorted(p, reverse=True)
+    """Simplex and multilinear kernels reproduce a linear function exactly; the
+    insertion sort of the fractions sorts (ties included) and keeps each axis."""
+    for k in range(1, 6):
+        P = np.array(list(itertools.product(range(k), repeat=k)), float).T   # (k, n)
+        d = _Descending()
+        for a in range(k):
+            d = d.insert(P[a], a)
+        F, A = np.array(d.fracs), np.array(d.axes)
+        np.testing.assert_array_equal(F, -np.sort(-P, axis=0))
+        np.testing.assert_array_equal(np.take_along_axis(P, A.astype(int), 0), F)
+        assert all(sorted(col) == list(range(k)) for col in A.T)
     shape = (4, 3, 5, 3, 4)
     X = np.meshgrid(*(np.arange(n, dtype=float) for n in shape), indexing="ij")
     vals = np.stack([sum((m + 1) * x for m, x in enumerate(X)), X[0] - 2 * X[4]], -1)

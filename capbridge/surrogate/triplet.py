@@ -73,7 +73,7 @@ from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANG
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 __all__ = ["TripletSurrogate", "holdout_errors", "LOWER_ENERGY_STATES", "PAIR_NAMES",
-           "UNEQUAL_RADII_ERROR", "default_table"]
+           "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES", "default_table"]
 
 PAIR_NAMES = ("f12", "f13", "f23")
 #: pairs (0-based grains) in the order of PAIR_NAMES
@@ -204,7 +204,10 @@ class _Grid:
         self.offsets = _corner_offsets(self.strides)
         self.kernel = kernel
 
-    def __call__(self, index, fracs):
+    def __call__(self, index, fracs, order=None):
+        """Interpolated values (n, nvar) in the cells ``index`` (one int array per axis)
+        at the fractional positions ``fracs``; ``order`` (simplex kernel): the
+        :class:`_Descending` fractions of these axes, if the caller has them already."""
         base = index[0] * self.strides[0]
         for i, s in zip(index[1:], self.strides[1:]):
             base = base + i * s
@@ -212,32 +215,39 @@ class _Grid:
             w = _corner_weights(fracs)
             vals = self.flat[base[:, None] + self.offsets]            # (n, 2^k, nvar)
             return np.einsum("nc,ncv->nv", w, vals)
-        # sort the fractions in decreasing order, carrying the strides along
-        # (a sorting network: a few whole-array compare-exchanges, no per-row sort)
-        f = list(fracs)
-        st = [np.full(f[0].shape, s, np.intp) for s in self.strides[:len(f)]]
-        for i, j in _SORTING_NETWORKS[len(f)]:
-            swap = f[i] < f[j]
-            f[i], f[j] = np.where(swap, f[j], f[i]), np.where(swap, f[i], f[j])
-            st[i], st[j] = np.where(swap, st[j], st[i]), np.where(swap, st[i], st[j])
+        if order is None:
+            order = _Descending()
+            for a, f in enumerate(fracs):
+                order = order.insert(f, a)
+        f, axis = order.fracs, order.axes
+        k = len(f)
         idx = base
         out = np.take(self.flat, idx, axis=0) * (1.0 - f[0])[:, None]
-        k = len(f)
         for m in range(k):
-            idx = idx + st[m]
+            idx = idx + self.strides[axis[m]]
             w = (f[m] - f[m + 1]) if m + 1 < k else f[m]
             out += np.take(self.flat, idx, axis=0) * w[:, None]
         return out
 
 
-#: compare-exchange networks that sort k values (Knuth, TAOCP 5.3.4; optimal for k <= 5)
-_SORTING_NETWORKS = {
-    1: [],
-    2: [(0, 1)],
-    3: [(0, 1), (1, 2), (0, 1)],
-    4: [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)],
-    5: [(0, 1), (3, 4), (2, 4), (2, 3), (0, 3), (0, 2), (1, 4), (1, 3), (1, 2)],
-}
+class _Descending:
+    """Fractional positions sorted in decreasing order, with the axis of each.
+
+    Built by insertion (compare-exchanges on whole arrays, no per-point sort), so the
+    gap axes sorted once serve the 3-D, 4-D (+ theta) and 5-D (+ v) lookups.
+    """
+
+    def __init__(self, fracs=(), axes=()):
+        self.fracs, self.axes = list(fracs), list(axes)
+
+    def insert(self, frac, axis):
+        f = self.fracs + [frac]
+        a = self.axes + [np.full(frac.shape, axis, np.int8)]
+        for j in range(len(f) - 2, -1, -1):
+            swap = f[j] < f[j + 1]
+            f[j], f[j + 1] = np.maximum(f[j], f[j + 1]), np.minimum(f[j], f[j + 1])
+            a[j], a[j + 1] = np.where(swap, a[j + 1], a[j]), np.where(swap, a[j], a[j + 1])
+        return _Descending(f, a)
 
 
 def _cell_max(node_codes):
@@ -677,7 +687,7 @@ class TripletSurrogate:
         out = self._lookup(g, V, t)
         return {k: v.reshape(shape) for k, v in out.items()}
 
-    def _lookup(self, g, V, t, chunk=8192):
+    def _lookup(self, g, V, t, chunk=16384):
         n = V.size
         out = {k: np.empty(n) for k in GRID_VARIABLES + (
             "volume_coalescence", "v", "V0", "dV", "energy_difference", "force_error")}
@@ -697,14 +707,18 @@ class TripletSurrogate:
         loc = [ax[k].locate(x) for k, x in zip(range(4), g + [t])]
         idx4 = [a[0] for a in loc]
         frac4 = [a[1] for a in loc]
-        Vc = self.coal_grid_(idx4, frac4)[:, 0]
-        law = self.law_grid_(idx4[:3], frac4[:3])
+        order = _Descending()
+        for a, f in enumerate(frac4[:3]):
+            order = order.insert(f, a)
+        law = self.law_grid_(idx4[:3], frac4[:3], order)
+        order = order.insert(frac4[3], 3)
+        Vc = self.coal_grid_(idx4, frac4, order)[:, 0]
         v = V / Vc
         lo, hi = self.v_[0], self.v_[-1]
         below, above = v < lo * (1 - _TOL), v > hi * (1 + _TOL)
         vq = np.clip(v, lo, hi)
         iv, fv = ax[4].locate(vq)
-        vals = self.grid_(idx4 + [iv], frac4 + [fv])
+        vals = self.grid_(idx4 + [iv], frac4 + [fv], order.insert(fv, 4))
         cidx = 0
         cshape = self.cell_code_.shape
         for k, i in enumerate(idx4 + [iv]):
@@ -756,7 +770,7 @@ class TripletSurrogate:
                 "solve triplet)")
 
     # ---------------------------------------------------------------------- vectors
-    def predict_vectors(self, centres, volume, theta, radii=None):
+    def predict_vectors(self, centres, volume, theta, radii=None, unequal="pair"):
         """Force vectors on the three grains in the caller's frame, from the centres.
 
         Parameters
@@ -772,6 +786,9 @@ class TripletSurrogate:
             Grain radii / r.  Unequal radii use the approximation of the module
             docstring (status APPROXIMATE); equal radii R scale the equal-sphere
             answer exactly (lengths / R, forces * R).
+        unequal : {"pair", "harmonic_pair", "harmonic", "arithmetic"}
+            The unequal-radii approximation (compared in ``benchmarks/bench_triplet.py``;
+            :data:`UNEQUAL_SCHEMES`): the default is the one with the smallest error.
 
         Returns
         -------
@@ -810,28 +827,23 @@ class TripletSurrogate:
                 f"grains {PAIRS[k[-1]][0] + 1} and {PAIRS[k[-1]][1] + 1} overlap (gap "
                 f"{gaps[tuple(k)]:.6g} < 0); overlapping grains are not supported")
         equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
-        if np.all(equal):
-            s = R[..., 0]                    # exact: the table scaled by the radius
-            r = self.predict(*(gaps[..., k] / s for k in range(3)), V / s**3, t)
-            looks = [(s, r)] * 3
-        else:
-            # each pair from the triplet scaled by its Derjaguin radius (module docstring)
-            looks = []
-            for i, j in PAIRS:
-                s = np.where(equal, R[..., 0], 2 * R[..., i] * R[..., j] /
-                             (R[..., i] + R[..., j]))
-                looks.append((s, self.predict(*(gaps[..., k] / s for k in range(3)),
-                                              V / s**3, t)))
-        s, r = looks[0]
+        looks = []                 # per pair: (lookup scale, force scale, lookup)
+        cache = {}
+        for k, (lk, fk) in enumerate(_unequal_scales(R, equal, unequal)):
+            if id(lk) not in cache:
+                cache[id(lk)] = self.predict(*(gaps[..., m] / lk for m in range(3)),
+                                             V / lk**3, t)
+            looks.append((lk, fk, cache[id(lk)]))
+        s, _, r = looks[0]
         res = dict(r)
         res["pressure"] = r["pressure"] / s
         res["energy"] = r["energy"] * s**2
         for name in ("volume_coalescence", "V0", "dV"):
             res[name] = r[name] * s**3
-        f = [look[PAIR_NAMES[k]] * sk for k, (sk, look) in enumerate(looks)]
-        res["force_error"] = np.max([look["force_error"] * sk for sk, look in looks], 0)
+        f = [look[PAIR_NAMES[k]] * fk for k, (_, fk, look) in enumerate(looks)]
+        res["force_error"] = np.max([look["force_error"] * fk for _, fk, look in looks], 0)
         status = r["status"]
-        for _, look in looks[1:]:
+        for _, _, look in looks[1:]:
             status = _combine_status(status, look["status"])
         if not np.all(equal):
             has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
@@ -899,6 +911,33 @@ class TripletSurrogate:
         for name in PAIR_NAMES:
             out[name] = res[name] * fs
         return out
+
+
+#: unequal-radii approximations: (length scale of the lookup, scale of the pair force)
+#: per pair, R_ij = 2 R_i R_j / (R_i + R_j) the pair's Derjaguin radius, R_h the
+#: harmonic mean 3 / sum(1/R_i) and R_a the arithmetic mean of the three radii
+UNEQUAL_SCHEMES = {
+    "pair": "each pair force from the triplet scaled by its Derjaguin radius R_ij "
+            "(lengths / R_ij, force * R_ij): three lookups",
+    "harmonic_pair": "one lookup at the harmonic mean radius R_h (lengths / R_h), each "
+                     "pair force scaled by R_ij",
+    "harmonic": "one lookup at R_h, forces * R_h",
+    "arithmetic": "one lookup at the arithmetic mean radius R_a, forces * R_a",
+}
+
+
+def _unequal_scales(R, equal, scheme):
+    """[(lookup scale, force scale)] per pair (PAIRS order) for radii R (..., 3)."""
+    check_choice("unequal", scheme, tuple(UNEQUAL_SCHEMES))
+    if np.all(equal):
+        s = R[..., 0]                     # exact: the table scaled by the radius
+        return [(s, s)] * 3
+    Rij = [np.where(equal, R[..., 0], 2 * R[..., i] * R[..., j] / (R[..., i] + R[..., j]))
+           for i, j in PAIRS]
+    Rh = np.where(equal, R[..., 0], 3.0 / np.sum(1.0 / R, axis=-1))
+    Ra = np.where(equal, R[..., 0], np.mean(R, axis=-1))
+    return {"pair": list(zip(Rij, Rij)), "harmonic_pair": [(Rh, r) for r in Rij],
+            "harmonic": [(Rh, Rh)] * 3, "arithmetic": [(Ra, Ra)] * 3}[scheme]
 
 
 #: precedence of statuses when one point is answered by several lookups: a status
