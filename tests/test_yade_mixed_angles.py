@@ -40,3 +40,34 @@ def test_mixed_angle_pull_apart_is_the_exact_solver():
     assert np.all(exact["status"] == Status.CONVERGED)
     np.testing.assert_allclose(along[inner], exact["force"], rtol=3.5e-3)
     assert np.all(along[gaps > res["d_rupt"] / r1] == 0.0)          # none past rupture
+
+
+def test_yade_law2_with_a_mixed_angle_export(tmp_path):
+    """Where YADE's format allows it (every bridge of the scene joins the two
+    materials): capbridge's export for (0, 60) deg read by YADE's compiled Law2 gives
+    the exact suction solution for that pair within 0.5 %, nothing past rupture."""
+    from capbridge.dem_plugin import yade_export as ye
+    from capbridge.generator import young_laplace as yl
+
+    t1, t2, r = 0.0, 60.0, 1e-3
+    suctions = np.array([0.0, 0.5, 1.0, 2.0, 5.0])
+    with pytest.warns(UserWarning, match="placeholder"):
+        ye.export_from_solver(tmp_path, t1, ratios=(1.0,), suctions=suctions, n_gaps=25,
+                              missing="stub", delaunay=False, theta2=t2)
+    assert (tmp_path / ("M(r=1)" + ye.theta_suffix(t1, t2))).exists()
+    s_star = suctions[2]
+    g_r = float(yl.suction_rupture_distance(-s_star, t1, theta2=t2)["gap"])
+    gaps = np.array([0.0, 0.15, 0.3, 0.55, 0.7, 1.3]) * g_r
+    run = yr.run_yade_script(SCENES / "suction_native_capbridge.py", [
+        "--dir", tmp_path, "--theta", t1, "--theta2", t2, "--r", r,
+        "--suction", s_star * GAMMA / r, "--gamma", GAMMA,
+        "--gaps=" + ",".join(repr(g * r) for g in gaps)], timeout=240)
+    rows = run.result["rows"]
+    exact = yl.solve_doublet_suction(gaps[:-1], -s_star, t1, theta2=t2)
+    assert np.all(exact["status"] == Status.CONVERGED)
+    same = yl.solve_doublet_suction(gaps[:-1], -s_star, t1)          # theta2 = theta1
+    scale = 2 * np.pi * GAMMA * r
+    for row, f, f_same in zip(rows, exact["force"], same["force"]):
+        assert row["force"] == pytest.approx(f * scale, rel=5e-3)
+        assert abs(f / f_same - 1) > 0.05          # the pair of angles matters here
+    assert rows[-1]["force"] == 0.0 and not rows[-1]["interaction"]

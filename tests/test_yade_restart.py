@@ -63,6 +63,7 @@ def test_forces_survive_save_tmp_load_tmp(tolerance):
     _same_forces(res["before"], res["after"])
     _user_perm_kept(res["before"] + res["after"], tolerance)
     assert any("state restored" in m for m in res["messages"])
+    assert res["extra_after_load"] == 11        # a registered state part came back too
 
 
 def test_forces_survive_save_and_load_in_a_new_process(tmp_path):

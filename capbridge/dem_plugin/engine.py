@@ -861,7 +861,7 @@ class CapbridgeEngine:
 
 
 def suction_law2(directory, theta, suction, gamma=0.073, *, export_if_missing=True,
-                 label="capillary", **export_kw):
+                 label="capillary", theta2=None, **export_kw):
     """YADE's ``Law2_ScGeom_CapillaryPhys_Capillarity`` reading capbridge's ``M(r=...)``
     files for contact angle ``theta`` (suction-controlled bridges, native speed).
 
@@ -873,16 +873,19 @@ def suction_law2(directory, theta, suction, gamma=0.073, *, export_if_missing=Tr
     matters here.  Use with ``Ip2_FrictMat_FrictMat_CapillaryPhys``,
     ``Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)`` and a detection range
     covering the rupture distance (``aabbEnlargeFactor`` / ``interactionDetectionFactor``).
+    ``theta2``: angle on the larger grain (the files then hold that pair of angles for
+    every bridge of the scene: right only when all bridges join the two materials).
     """
     from capbridge.dem_plugin import yade_export as ye
 
     directory = Path(directory)
-    suffix = ye.theta_suffix(theta)
+    suffix = ye.theta_suffix(theta, theta2)
     files = [directory / ye.capillary_file_name(r, suffix) for r in ye.YADE_RATIOS]
     if not all(f.exists() for f in files):
         if not export_if_missing:
             raise FileNotFoundError(f"capillary files {suffix} missing in {directory}")
-        ye.export_from_solver(directory, theta, suffix=suffix, delaunay=False, **export_kw)
+        ye.export_from_solver(directory, theta, suffix=suffix, delaunay=False, theta2=theta2,
+                              **export_kw)
     _, wrapper = _yade()
     with chdir(directory):
         return wrapper.Law2_ScGeom_CapillaryPhys_Capillarity(

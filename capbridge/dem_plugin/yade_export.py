@@ -435,13 +435,17 @@ def from_yade_units(ratio, P=None, D=None, V=None, F=None, delaunay=False):
     return out
 
 
-def theta_suffix(theta):
-    """``suffCapFiles`` value capbridge uses for contact angle ``theta`` [deg].
+def theta_suffix(theta, theta2=None):
+    """``suffCapFiles`` value capbridge uses for contact angle ``theta`` [deg] (and
+    ``theta2`` on the larger grain when it differs).
 
-    >>> theta_suffix(30), theta_suffix(27.5), theta_suffix(0)
-    ('_theta30', '_theta27.5', '_theta0')
+    >>> theta_suffix(30), theta_suffix(27.5), theta_suffix(0), theta_suffix(0, 60)
+    ('_theta30', '_theta27.5', '_theta0', '_theta0-60')
     """
-    return "_theta" + _fmt_number(float(theta))
+    out = "_theta" + _fmt_number(float(theta))
+    if theta2 is not None and float(theta2) != float(theta):
+        out += "-" + _fmt_number(float(theta2))
+    return out
 
 
 def _fmt_number(x):
@@ -909,18 +913,21 @@ _BRIDGE_KEYS = ("volume", "force", "beta1", "beta2", "area")
 
 
 def rupture_edge(theta, ratios, suctions, gaps, *, solver_kwargs=None, tol=1e-10,
-                 max_iter=60):
+                 max_iter=60, theta2=None):
     """Bridges at rupture for :attr:`SuctionTable.edge`, from the exact solver.
 
     For every ratio: the rupture of every grid suction (``suction_rupture_distance``),
     and, for every grid gap inside the range of those rupture gaps, the suction whose
     bridge ruptures exactly at that gap (bracketed between grid suctions, Illinois
-    iterations on the rupture gap to ``tol``).  Returns the ``edge`` dict (capbridge
+    iterations on the rupture gap to ``tol``); ``theta2`` the angle on the larger grain
+    (default ``theta``).  Returns the ``edge`` dict (capbridge
     units, shape ``(len(ratios), len(suctions) + len(gaps))``, NaN = no point).
     """
     from capbridge.generator.young_laplace import suction_rupture_distance
 
-    kw = solver_kwargs or {}
+    kw = dict(solver_kwargs or {})
+    if theta2 is not None:          # only when given: equal angles keep the plain call
+        kw["theta2"] = theta2
     ratios, suctions, gaps = (np.asarray(a, float) for a in (ratios, suctions, gaps))
     n_s, n_g = suctions.size, gaps.size
     out = {k: np.full((ratios.size, n_s + n_g), np.nan)
@@ -991,7 +998,7 @@ def rupture_edge(theta, ratios, suctions, gaps, *, solver_kwargs=None, tol=1e-10
 def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps=None, *,
                        n_gaps=61, suffix=None, law2=True, delaunay=True, edge=True,
                        delaunay_name="capillaryfile{suffix}.txt", solver_kwargs=None,
-                       missing="error"):
+                       missing="error", theta2=None):
     """Solve the suction-controlled doublets with capbridge's exact solver and write them.
 
     Calls ``capbridge.generator.young_laplace.solve_doublet_suction(gap, pressure, theta,
@@ -999,6 +1006,13 @@ def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps
     units: smaller radius), adds the bridges at rupture (:func:`rupture_edge`) unless
     ``edge=False``, then writes :func:`write_capillary_files` (suffix
     :func:`theta_suffix` unless given) and :func:`write_delaunay_file`.
+
+    ``theta2``: contact angle on the larger grain of every pair (default ``theta``).
+    YADE's ``Law2_ScGeom_CapillaryPhys_Capillarity`` reads one set of files for every
+    pair of a scene and knows nothing of materials, so mixed angles in these formats
+    are right only for a scene whose bridges all join a grain at ``theta`` (the smaller,
+    or either when equal) to one at ``theta2``; capbridge's own engine
+    (``CapbridgeEngine``) handles any mixture.
 
     Default grids: 48 suctions, 0 then geometric from 0.02 to 500; ``n_gaps`` gaps from
     0 to 2 % past the largest rupture gap (that of zero suction and the largest ratio).
@@ -1010,7 +1024,9 @@ def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps
     except ImportError as exc:  # the solver is not there (yet)
         raise RuntimeError("capbridge.generator.young_laplace.solve_doublet_suction is "
                            f"not available: {exc}") from exc
-    kw = solver_kwargs or {}
+    kw = dict(solver_kwargs or {})
+    if theta2 is not None:          # only when given: equal angles keep the plain call
+        kw["theta2"] = theta2
     ratios = np.asarray(ratios, float)
     suctions = np.asarray(suctions if suctions is not None
                           else np.concatenate([[0.0], np.geomspace(0.02, 500.0, 47)]), float)
@@ -1040,8 +1056,9 @@ def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps
                          edge=rupture_edge(theta, ratios, suctions, gaps, solver_kwargs=kw)
                          if edge else None,
                          attrs={"source": "capbridge.generator.young_laplace.solve_doublet_suction",
-                                "rupture_edge": "suction_rupture_distance" if edge else "none"})
-    suffix = theta_suffix(theta) if suffix is None else suffix
+                                "rupture_edge": "suction_rupture_distance" if edge else "none",
+                                "theta2": float(theta if theta2 is None else theta2)})
+    suffix = theta_suffix(theta, theta2) if suffix is None else suffix
     paths = []
     if law2:
         paths += write_capillary_files(table, directory, suffix, missing=missing)

@@ -17,8 +17,9 @@ user's permanent force is set on grain ``--perm-id`` before every run segment (Y
 drops permanent forces on load, the user sets it again).  Prints one JSON line.
 """
 import argparse
-import math
 import sys
+
+import numpy as np
 
 from capbridge.dem_plugin import yade_runtime
 
@@ -100,15 +101,22 @@ O.engines = [
 ]
 O.dt = 0.5 * utils.PWaveTimeStep()
 O.forces.setPermF(perm_id, PERM)
+# an extra part of the engine's state (as liquid clusters will be): saved and restored
+extra = {"n": 0}
+cap.register_state("demo", lambda: {"counter": np.array([extra["n"]])},
+                   lambda st: extra.update(n=int(st["counter"][0])))
 O.run(cfg.settle, True)
 out = {"n_bridges_at_save": cap.model.n_bridges, "iter_at_save": int(O.iter),
        "dt": O.dt, "perm_id": perm_id}
 if cfg.mode == "tmp":
+    extra["n"] = 11
     O.saveTmp()
     out["before"] = record(cfg.record, "pile")
+    extra["n"] = 99
     O.loadTmp()
     O.forces.setPermF(perm_id, PERM)
     out["after"] = record(cfg.record, "pile")
+    out["extra_after_load"] = extra["n"]
 else:
     O.save(cfg.file)
     out["before"] = record(cfg.record, "pile")

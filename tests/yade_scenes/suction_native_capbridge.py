@@ -25,13 +25,15 @@ from capbridge.dem_plugin.engine import suction_law2  # noqa: E402
 cli = argparse.ArgumentParser()
 cli.add_argument("--dir", required=True)
 cli.add_argument("--theta", type=float, required=True)
+cli.add_argument("--theta2", type=float, default=None, help="angle on the second grain")
 cli.add_argument("--r", type=float, default=1e-3)
 cli.add_argument("--suction", type=float, required=True)
 cli.add_argument("--gamma", type=float, default=0.073)
 cli.add_argument("--gaps", type=yade_runtime.float_list, required=True)
 cfg = cli.parse_args(sys.argv[1:])
 
-law = suction_law2(cfg.dir, cfg.theta, cfg.suction, cfg.gamma, export_if_missing=False)
+law = suction_law2(cfg.dir, cfg.theta, cfg.suction, cfg.gamma, export_if_missing=False,
+                   theta2=cfg.theta2)
 law.createDistantMeniscii = True          # wet the pair at its first position
 b0, b1 = yade_runtime.two_fixed_spheres(cfg.r, cfg.r, cfg.gaps[0], Ip2_FrictMat_FrictMat_CapillaryPhys(),
                                         Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True), law)
