@@ -358,8 +358,8 @@ _KINDS = ("pinch", "fold", "penetration", "degenerate", "volume", "energy", "con
 
 def classify(status, reason, warnings=()):
     from capbridge.status import Status
-    if status == Status.CONVERGED:
-        est = any("above tolerance" in w for w in warnings)
+    if status in (Status.CONVERGED, Status.ABOVE_TOLERANCE):
+        est = status == Status.ABOVE_TOLERANCE or any("above tolerance" in w for w in warnings)
         return REASONS.index("converged, estimate above tolerance" if est else "converged")
     if status == Status.COALESCED:
         return REASONS.index("coalesced (caps met)")

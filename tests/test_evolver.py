@@ -18,7 +18,7 @@ from capbridge.generator.evolver import (Settings, available, doublet_force, dou
                                          make_problem, minimise, minimise_bridge)
 from capbridge.generator.evolver import geometry, runner
 from capbridge.generator.evolver.datafile import mesh_problem, write_datafile
-from capbridge.status import Status
+from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
 needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
@@ -132,7 +132,7 @@ def doublet_theta0():
 @needs_evolver
 def test_doublet_theta0_checks(doublet_theta0):
     r = doublet_theta0
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     # volume conserved
     assert abs(r.volume[0] - 0.05) < 1e-8
     # forces on the two grains equal and opposite, axial
@@ -161,7 +161,7 @@ def test_doublet_theta0_checks(doublet_theta0):
 @pytest.mark.parametrize("theta", [30.0, 60.0])
 def test_doublet_against_exact(theta):
     F, r = doublet_force(0.1, 0.05, theta, max_refine=3)
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     ex = _exact(0.1, 0.05, theta)
     assert F == pytest.approx(float(ex["force"]), rel=0.005)
     assert r.energy_extrapolated == pytest.approx(float(ex["energy"]), abs=2e-3)
@@ -173,7 +173,7 @@ def test_doublet_against_exact(theta):
 @needs_evolver
 def test_unequal_radii_doublet():
     F, r = doublet_force(0.1, 0.05, 30.0, ratio=2.0, max_refine=3)
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     assert np.abs(r.forces[0] + r.forces[1]).max() < 1e-4
     yl = pytest.importorskip("capbridge.generator.young_laplace")
     ex = yl.solve_doublet(0.1, 0.05, 30.0, ratio=2.0)
@@ -187,7 +187,7 @@ def test_doublet_with_gravity_carries_the_weight():
     bo = 2.14
     pb = doublet_problem(0.1, 0.05, 30.0, bond=bo, gravity_dir=(0, 0, -1))
     r = minimise(pb, Settings(max_refine=3))
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     weight = bo * 0.05 * np.array([0, 0, -1.0]) / (2 * np.pi)
     assert np.allclose(r.forces_vw.sum(axis=0), weight, atol=1e-6)
     # direct forces (cuts with the hydrostatic terms): balance to 0.5 % of the force
@@ -204,7 +204,7 @@ def test_paper_triplet_coalesced_body():
     and the forces balance."""
     C = triplet_centres(0.175, 0.175, 0.075)
     r = minimise_bridge(C, 1.0, 0.0, 16 / 64, topology="coalesced", max_refine=2)
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     for rec in r.levels:
         assert rec.diagnostics["max_penetration"] < 1e-6
     F = r.forces
@@ -221,7 +221,7 @@ def test_two_bridges_on_a_shared_grain_sum_to_zero():
     C = triplet_centres(0.175, 0.175, 0.075)
     r = minimise_bridge(C, 1.0, 30.0, [0.05, 0.05], topology="bridges",
                         pairs=[(0, 1), (0, 2)], max_refine=2)
-    assert r.status == Status.CONVERGED, r.reason
+    assert r.status in HAS_RESULT, r.reason
     assert np.abs(r.forces.sum(axis=0)).max() < 1e-3
 
 
@@ -392,7 +392,7 @@ def test_caps_meeting_on_the_coarse_mesh_is_checked_on_a_finer_one():
     C = triplet_centres(*d)
     below = minimise(make_problem(C, 1.0, theta, [0.59 * vc / 3] * 3, "bridges", pairs=pairs),
                      Settings(max_refine=2, ftol=1e-2, etol=1e-2, workers=1))
-    assert below.status == Status.CONVERGED, below.reason
+    assert below.status in HAS_RESULT, below.reason
     above = minimise(make_problem(C, 1.0, theta, [1.3 * vc / 3] * 3, "bridges", pairs=pairs),
                      Settings(max_refine=2, ftol=1e-2, etol=1e-2, workers=1))
     assert above.status == Status.COALESCED, above.reason

@@ -370,7 +370,7 @@ def energy_comparison(geom, theta, volumes, bridges=((0, 1), (0, 2)), fractions=
         if r is None:
             r = evolver_triplet(v, geom, theta, "coalesced", max_refine=max_refine, tol=tol)
         st.append(r["status"])
-        if r["status"] == "converged":
+        if r["status"] in ("converged", "above_tolerance"):
             Ec[n] = r["energy_extrapolated"]
             Ee[n] = r["energy_error"]
         if callback is not None:

@@ -50,6 +50,9 @@ import numpy as np
 from capbridge.dimensionless import bond_number, force_scale
 from capbridge.status import Status, status_name
 
+HAS_RESULT_NAMES = ("converged", "above_tolerance")
+HAS_RESULT_CODES = (int(Status.CONVERGED), int(Status.ABOVE_TOLERANCE))
+
 RADIUS = 4e-3                      # m
 UL_PER_VSTAR = (RADIUS * 1e3) ** 3  # (4 mm)^3 = 64 ul
 D12 = D13 = 0.175
@@ -459,7 +462,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
     mesh_bias = {}
     for t in plan.thetas:
         sel = dfb[(dfb["kind"] == BRIDGES) & (dfb["theta"] == t) & (dfb["bond"] == 0)
-                  & (dfb["level"] == L) & (dfb["status"] == 0)]
+                  & (dfb["level"] == L) & (dfb["status"].isin(HAS_RESULT_CODES))]
         if len(sel) >= 2:
             c = coalescence_from_cap_gaps(sel["V_ul"], sel["cap_gap"], 2 * alpha)
             mesh_bias[t] = c["V_coal"] - ul(vc[t])
@@ -470,7 +473,7 @@ def run(output_dir="examples/miot2021", quick=False, checkpoint_dir=None, progre
     vc_grav = {}
     for gam, ts in plan.gravity.items():
         for t in ts:
-            sel = dfb[(dfb["theta"] == t) & (dfb["bond"] == bonds[gam]) & (dfb["status"] == 0)]
+            sel = dfb[(dfb["theta"] == t) & (dfb["bond"] == bonds[gam]) & (dfb["status"].isin(HAS_RESULT_CODES))]
             c = coalescence_from_cap_gaps(sel["V_ul"], sel["cap_gap"], 2 * alpha)
             bias = mesh_bias.get(t, 0.0 if t > 0 else np.nan)
             corr = c["V_coal"] - (bias if np.isfinite(bias) else 0.0)
@@ -610,7 +613,7 @@ def _jumps(R):
     vc = R["vc"]
     for t, v in vc.items():
         c0 = R["dfc0"]
-        after = c0[(c0["theta"] == t) & (np.isclose(c0["volume"], v)) & (c0["status"] == 0)]
+        after = c0[(c0["theta"] == t) & (np.isclose(c0["volume"], v)) & (c0["status"].isin(HAS_RESULT_CODES))]
         if not len(after):
             continue
         before = _exact_force_at_coalescence(R["curves"], t)
@@ -622,9 +625,9 @@ def _jumps(R):
     for (gam, t), v in R["vc_grav"].items():
         bo = R["bonds"][gam]
         b = R["dfb"]
-        sel = b[(b["theta"] == t) & (b["bond"] == bo) & (b["status"] == 0)].sort_values("V_ul")
+        sel = b[(b["theta"] == t) & (b["bond"] == bo) & (b["status"].isin(HAS_RESULT_CODES))].sort_values("V_ul")
         c = R["dfcg"]
-        after = c[(c["theta"] == t) & (c["bond"] == bo) & (c["status"] == 0)].sort_values("V_ul")
+        after = c[(c["theta"] == t) & (c["bond"] == bo) & (c["status"].isin(HAS_RESULT_CODES))].sort_values("V_ul")
         if len(sel) < 2 or not len(after) or not np.isfinite(v):
             continue
         # before: the separate bridges' force extrapolated linearly to V_coal
@@ -654,8 +657,8 @@ def _energies(R):
         for (_, p), eu in zip(sel.iterrows(), unc["energy"]):
             rows.append({"theta_deg": t, "V_ul": p["V_ul"], "V_coal_ul": ul(R["vc"][t]),
                          "E_uncoalesced_star": eu,
-                         "E_coalesced_star": p["energy_ex"] if p["status"] == 0 else np.nan,
-                         "E_coalesced_err": p["energy_err"] if p["status"] == 0 else np.nan,
+                         "E_coalesced_star": p["energy_ex"] if p["status"] in HAS_RESULT_CODES else np.nan,
+                         "E_coalesced_err": p["energy_err"] if p["status"] in HAS_RESULT_CODES else np.nan,
                          "coalesced_status": p["status_name"]})
         df = pd.DataFrame([r for r in rows if r["theta_deg"] == t])
         d = (df["E_coalesced_star"] - df["E_uncoalesced_star"]).to_numpy()
@@ -735,17 +738,17 @@ def build_summary(plan, R, ft, jumps, cross):
     b = R["dfb"]
     bias = b[(b["theta"] == 0) & (b["bond"] == 0) & np.isclose(b["volume"], vc[0.0])]
     s["theta0_cap_gap_at_exact_V_coal_by_level"] = {
-        int(r["level"]): r["cap_gap"] for _, r in bias.iterrows() if r["status"] == 0}
+        int(r["level"]): r["cap_gap"] for _, r in bias.iterrows() if r["status"] in HAS_RESULT_CODES}
     ex_top = _exact_force_at_coalescence(R["curves"], 0.0)
     s["theta0_force_at_V_coal_by_level"] = {
         "exact": ex_top,
         **{int(r["level"]): {"F_top": r["F_top"], "err_vs_exact_pct":
                              100 * (r["F_top"] / ex_top - 1), "est_err_pct":
                              100 * r["force_err_rel"], "cpu_s": r["cpu"]}
-           for _, r in bias.iterrows() if r["status"] == 0}}
+           for _, r in bias.iterrows() if r["status"] in HAS_RESULT_CODES}}
     # beta at 20 ul, theta = 60, gamma = 0.0693, gravity
     bo = R["bonds"][0.0693]
-    sel = b[(b["theta"] == 60) & (b["bond"] == bo) & (b["status"] == 0)]
+    sel = b[(b["theta"] == 60) & (b["bond"] == bo) & (b["status"].isin(HAS_RESULT_CODES))]
     if len(sel):
         c = coalescence_from_cap_gaps(sel["V_ul"], sel["cap_gap"], 2 * R["alpha"])
         at20 = [(v, bta) for v, bta in zip(c["volumes"], c["beta_equivalent"]) if abs(v - 20) < 1e-6]
@@ -755,7 +758,7 @@ def build_summary(plan, R, ft, jumps, cross):
     # energy convention: Evolver doublet energies against the exact ones
     if len(dv):
         from capbridge.generator.young_laplace import solve_doublet
-        ok = dv[dv["status"] == 0]
+        ok = dv[dv["status"].isin(HAS_RESULT_CODES)]
         ex = solve_doublet(ok["gap"].to_numpy(), ok["volume"].to_numpy(), 0.0)["energy"]
         s["energy_convention_check"] = [
             {"V_star": float(v), "d_star": float(d), "E_exact": float(e),
@@ -763,7 +766,7 @@ def build_summary(plan, R, ft, jumps, cross):
              "rel_diff_pct": float(100 * abs(x / e - 1))}
             for v, d, e, x in zip(ok["volume"], ok["gap"], ex, ok["energy_ex"])]
     # slope of beta against V at the theta = 0 coalescence (exact)
-    cu = R["curves"][(R["curves"]["theta_deg"] == 0) & (R["curves"]["status"] == "converged")]
+    cu = R["curves"][(R["curves"]["theta_deg"] == 0) & R["curves"]["status"].isin(HAS_RESULT_NAMES)]
     if len(cu) >= 3:
         x, y = cu["V_ul"].to_numpy()[-3:], cu["beta_top_deg"].to_numpy()[-3:]
         s["beta_slope_theta0_deg_per_ul"] = float(np.polyfit(x, y, 1)[0])
@@ -803,7 +806,7 @@ def build_summary(plan, R, ft, jumps, cross):
     cg = R["dfcg"]
     zl = []
     for df, grav in ((c0, False), (cg, True)):
-        for _, r in df[df["status"] == 0].iterrows():
+        for _, r in df[df["status"].isin(HAS_RESULT_CODES)].iterrows():
             if r["volume"] >= vc.get(r["theta"], 0) * (1 - 1e-9):
                 zl.append({"theta_deg": r["theta"], "V_ul": r["V_ul"], "bond": r["bond"],
                            "z_low_mm": r["z_low"] * RADIUS * 1e3})
@@ -871,7 +874,7 @@ def make_figures(out, plan, R, ft, en):
             ax.plot(s["d_star"], s["F_willett_outside_range"], "c:", alpha=0.4,
                     label="Willett (outside its range)")
         if len(dv):
-            e = dv[np.isclose(dv["volume"], V) & (dv["status"] == 0)]
+            e = dv[np.isclose(dv["volume"], V) & (dv["status"].isin(HAS_RESULT_CODES))]
             ax.errorbar(e["gap"], e["F_axial"], yerr=e["F_axial"] * e["force_err_rel"],
                         fmt="bo", label="energy method (Surface Evolver)")
         ax.set_title(f"V* = {V}, theta = 0")
@@ -886,7 +889,7 @@ def make_figures(out, plan, R, ft, en):
     for t in thetas:
         u = g[(g["theta_deg"] == t) & (g["regime"] == "uncoalesced")
               & g["method"].str.startswith("exact")]
-        c = g[(g["theta_deg"] == t) & (g["regime"] == "coalesced") & (g["status"] == "converged")
+        c = g[(g["theta_deg"] == t) & (g["regime"] == "coalesced") & g["status"].isin(HAS_RESULT_NAMES)
               & (g["V_ul"] >= ul(R["vc"][t]) - 1e-9)].sort_values("V_ul")
         by_theta(ax, t, u, "F_top_mN", c, "F_top_mN", f"theta = {t:g}")
     _volume_axes(ax, "vertical force on the top grain [mN]",
@@ -922,7 +925,7 @@ def make_figures(out, plan, R, ft, en):
 
     # Figs. 11/13: theta = 0, gravity and surface tension
     fig, axs = plt.subplots(2, 1, figsize=(7, 8), sharex=True)
-    g0 = ft[(ft["theta_deg"] == 0) & (ft["status"] == "converged")]
+    g0 = ft[(ft["theta_deg"] == 0) & ft["status"].isin(HAS_RESULT_NAMES)]
     styles = {(0.073, False): ("b", "o", "-"), (0.0693, False): ("c", "o", "--"),
               (0.073, True): ("g", "*", "-"), (0.0693, True): ("m", "*", "--")}
     for (gam, grav), (c, mk, ls) in styles.items():
@@ -956,7 +959,7 @@ def make_figures(out, plan, R, ft, en):
 
     # Fig. 14: gamma = 0.0693, gravity, theta = 55 and 60
     s14 = ft[(ft["gamma_N_m"] == 0.0693) & ft["gravity"] & ft["theta_deg"].isin([55.0, 60.0])
-             & (ft["status"] == "converged")]
+             & ft["status"].isin(HAS_RESULT_NAMES)]
     if len(s14):
         fig, ax = plt.subplots(figsize=(6, 4.5))
         for t, mk in ((60.0, "^"), (55.0, "s")):
@@ -975,7 +978,7 @@ def make_figures(out, plan, R, ft, en):
 
     # Fig. 15: beta against volume, theta = 60, gamma = 0.0693, gravity
     b = R["dfb"]
-    s15 = b[(b["theta"] == 60) & (b["bond"] == R["bonds"][0.0693]) & (b["status"] == 0)]
+    s15 = b[(b["theta"] == 60) & (b["bond"] == R["bonds"][0.0693]) & (b["status"].isin(HAS_RESULT_CODES))]
     if len(s15):
         fig, ax = plt.subplots(figsize=(6, 4))
         beta = R["alpha"] - 0.5 * s15["cap_gap"]

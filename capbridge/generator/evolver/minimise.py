@@ -72,7 +72,7 @@ class Settings:
     total_timeout: float = 3600.0
     workers: int | None = None    # Evolver processes at once (default min(2, cores))
     keep_files: bool = False      # keep the temporary directory (path in result)
-    flag_above_tolerance: bool = False   # status ABOVE_TOLERANCE (not CONVERGED) for a
+    flag_above_tolerance: bool = True    # status ABOVE_TOLERANCE (not CONVERGED) for a
                                   # result whose own error estimate exceeds etol/ftol at
                                   # the last level; off until every caller accepts it
                                   # (they test status == CONVERGED for "has a result")

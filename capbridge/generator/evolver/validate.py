@@ -75,7 +75,7 @@ def main(argv=None):
     ap.add_argument("--json")
     a = ap.parse_args(argv)
     rows = run(grid(a.quick), Settings(max_refine=a.max_refine))
-    ok = [r for r in rows if r["status"] == "converged"]
+    ok = [r for r in rows if r["status"] in ("converged", "above_tolerance")]
     if ok:
         worst = max(ok, key=lambda r: abs(r["err_vw_extrapolated"]))
         print(f"\n{len(ok)}/{len(rows)} converged; largest |dF*|/F* = "
