@@ -190,15 +190,19 @@ def test_kernels_exact_on_linear_functions():
                                    atol=1e-12)
 
 
-def test_refinement_error_small(table, sur):
-    """The fine grid's own error (twice finer grid as reference) is far below the
-    held-out error."""
-    fine = TripletSurrogate(refine=tuple(2 * r for r in sur.refine)).fit(table)
-    g, t, V = _inside(sur, 400, 5)
-    a, b = sur.predict(*g, V, t), fine.predict(*g, V, t)
-    ok = np.isin(a["status"], ANSWERED)
-    d = max(np.max(np.abs(a[n][ok] / b[n][ok] - 1)) for n in PAIR_NAMES)
-    assert d < 0.25 * max(sur.interpolation_error_["median_rel_error"], 1e-3)
+def test_fine_grid_error_small(sur):
+    """The fine-grid lookup against the spline interpolant it stands for (evaluated
+    directly at each point): far below the target accuracy of the surrogate (0.5 %
+    median): at most 0.1 % median and 0.5 % max in f_ij."""
+    g, t, V = _inside(sur, 150, 5)
+    v = V / sur.coalescence_volume(*g, t)["volume_coalescence"]
+    r = sur.predict(*g, V, t)
+    ok = np.isin(r["status"], ANSWERED)
+    if ok.sum() < 10:
+        pytest.skip("fewer than 10 answered points")
+    exact = sur.spline_at(*(x[ok] for x in g), t[ok], v[ok])
+    rel = np.abs(np.stack([r[n][ok] for n in PAIR_NAMES], 1) / exact[:, :3] - 1)
+    assert np.median(rel) < 1e-3 and rel.max() < 5e-3, (np.median(rel), rel.max())
 
 
 def test_statuses_at_failed_and_inexact_nodes(table):
@@ -340,18 +344,20 @@ def test_si_and_scaling(sur):
 
 
 def test_coalescence_table_plugs_in(table, sur):
-    """A coalescence table on the triplet table's own grid with its own values changes
-    nothing in V*_coal; its linear law is used for V0, dV; one that does not cover the
-    table is refused."""
+    """A coalescence table on the triplet table's own grid with its own values keeps
+    V*_coal at the nodes; its linear law is used for V0, dV; one that does not cover
+    the table is refused."""
     axes = {d: table[d] for d in ("d12", "d13", "d23", "theta")}
     Vc = table["volume_coalescence"]
     V0 = xr.DataArray(np.full(Vc.shape[:3], 0.123), dims=("d12", "d13", "d23"))
     dc = xr.Dataset({"V_coal_pair": Vc, "V0_pair": V0, "dV_pair": V0 * 2}, coords=axes)
     s = TripletSurrogate().fit(table, coalescence_table=dc)
+    G = np.meshgrid(*(table[d].values for d in ("d12", "d13", "d23", "theta")),
+                    indexing="ij")
+    np.testing.assert_allclose(s.coalescence_volume(*G)["volume_coalescence"], Vc.values,
+                               rtol=1e-12)
     g, t, V = _inside(sur, 100, 9)
-    a, b = sur.predict(*g, V, t), s.predict(*g, V, t)
-    np.testing.assert_allclose(b["volume_coalescence"], a["volume_coalescence"], rtol=1e-9)
-    np.testing.assert_allclose(b["f12"], a["f12"], rtol=1e-9)
+    b = s.coalescence_volume(*g, t)
     np.testing.assert_allclose(b["V0"], 0.123, rtol=1e-12)
     np.testing.assert_allclose(b["dV"], 0.246, rtol=1e-12)
     small = dc.assign_coords({d: dc[d] * 0.5 for d in ("d12", "d13", "d23")})

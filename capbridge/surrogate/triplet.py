@@ -250,6 +250,13 @@ class _Descending:
         return _Descending(f, a)
 
 
+def _linear_at(values, coarse, x):
+    """Linear interpolation of ``values`` along its first axis at one point x."""
+    j = int(np.clip(np.searchsorted(coarse, x) - 1, 0, len(coarse) - 2))
+    w = (x - coarse[j]) / (coarse[j + 1] - coarse[j])
+    return values[j] * (1 - w) + values[j + 1] * w
+
+
 def _cell_max(node_codes):
     """Largest code over the 2^k corners of every coarse cell."""
     c = node_codes
@@ -451,6 +458,7 @@ class TripletSurrogate:
             has &= extra[2] == 0
         filled = np.stack([_fill_failed(vals[..., k], has, (4, 3)) for k in
                            range(vals.shape[-1])], -1)
+        self._coarse = (coarse, filled)
         self.kernel_ = "simplex" if self.method == "cubic" else "multilinear"
         self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
         self._coalescence(ds, coarse, coalescence_table)
@@ -531,14 +539,19 @@ class TripletSurrogate:
             lin_fine = _refine(lin, coarse[:3], self.axes_[:3], self.method)
             self.coalescence_source_ = "triplet table (volume_coalescence)"
         else:
-            Vfine, lin_fine = self._dense_coalescence(coalescence_table, Vfine, c4)
+            Vfine, lin_fine = self._dense_coalescence(coalescence_table, Vc_f, c4)
         self.coal_grid_ = _Grid(Vfine[..., None], self.kernel_)
         self.law_grid_ = _Grid(lin_fine, self.kernel_)
 
-    def _dense_coalescence(self, table, Vfine, c4):
-        """V*_coal = (triplet table refined) + (dense - dense at the triplet nodes,
-        refined): the triplet table's values at its nodes, the dense table's shape
-        between them; V0, dV from the dense table, at the sorted gaps."""
+    def _dense_coalescence(self, table, Vc_nodes, c4):
+        """V*_coal from a coalescence table: its V_coal_pair W(a, b, c) (the bridges on
+        gaps a and b, third gap c) is smooth; the triplet table's reference is W at the
+        sorted gaps, kinked where two gaps are equal.  So V*_coal = W(sorted gaps) by
+        cubic interpolation in the coalescence table, plus the residual of that
+        interpolation at the triplet table's nodes (refined like the table), which
+        keeps the triplet table's own values at its nodes.  The kinks then lie on the
+        planes of equal gaps, which the fine grid's simplices never cross.  V0, dV: the
+        coalescence table's linear law at the sorted gaps."""
         from scipy.interpolate import RegularGridInterpolator
 
         from capbridge.generator.netcdf_io import read_table
@@ -560,26 +573,48 @@ class TripletSurrogate:
         V = np.asarray(dc["V_coal_pair"].values, float)
         if not np.isfinite(V).all():
             raise CapbridgeInputError(f"{src}: V_coal_pair has missing values")
-        dense = RegularGridInterpolator((g, g, g, t), V)
+        method = "cubic" if min(g.size, t.size) >= 4 else "linear"
+        W = RegularGridInterpolator((g, g, g, t), V, method=method)
         law = RegularGridInterpolator((g, g, g), np.stack(
-            [dc["V0_pair"].values, dc["dV_pair"].values], -1))
+            [dc["V0_pair"].values, dc["dV_pair"].values], -1), method=method)
 
-        def at(gaps_axis, theta_axis):
-            # the table's reference is the pair on the two smallest gaps: sorted gaps
-            G = np.stack(np.meshgrid(gaps_axis, gaps_axis, gaps_axis, indexing="ij"), -1)
-            Gs = np.sort(G, axis=-1)
+        def sorted_gaps(axis):
+            G = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), -1)
+            return np.sort(G, axis=-1)
+
+        def W_at(gaps_axis, theta_axis):
+            Gs = sorted_gaps(gaps_axis)
             P = np.concatenate([np.repeat(Gs[..., None, :], theta_axis.size, -2),
                                 np.broadcast_to(theta_axis[:, None], Gs.shape[:3] +
                                                 (theta_axis.size, 1))], -1)
-            return dense(P.reshape(-1, 4)).reshape(P.shape[:-1]), Gs
+            return W(P.reshape(-1, 4)).reshape(P.shape[:-1])
 
-        fine_g, fine_t = self.axes_[0].nodes, self.axes_[3].nodes
-        d_fine, Gs = at(fine_g, fine_t)
-        d_nodes, _ = at(c4[0], c4[3])
-        corr = d_fine - _refine(d_nodes, c4, self.axes_[:4], self.method)
-        self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair)"
+        resid = Vc_nodes - W_at(c4[0], c4[3])
+        self.coalescence_residual_ = float(np.max(np.abs(resid) / Vc_nodes))
+        Vfine = W_at(self.axes_[0].nodes, self.axes_[3].nodes) + \
+            _refine(resid, c4, self.axes_[:4], self.method)
+        Gs = sorted_gaps(self.axes_[0].nodes)
         lin_fine = law(Gs.reshape(-1, 3)).reshape(Gs.shape[:3] + (2,))
-        return Vfine + corr, lin_fine
+        self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair; {method})"
+        return Vfine, lin_fine
+
+    def spline_at(self, d12, d13, d23, theta, v):
+        """The refined interpolant itself (splines along each axis, no fine grid) at
+        points given by their volume ratio v: (n, 5) values of
+        :data:`GRID_VARIABLES`.  Slow (a few splines per point); it measures the error
+        of the fine-grid lookup (benchmark and tests), nothing else uses it."""
+        self._check_fitted()
+        coarse, vals = self._coarse
+        pts = np.broadcast_arrays(*(np.atleast_1d(np.asarray(x, float))
+                                    for x in (d12, d13, d23, theta, v)))
+        out = np.empty((pts[0].size, len(GRID_VARIABLES)))
+        for n in range(pts[0].size):
+            y = vals
+            for c, x in zip(coarse, pts):
+                y = _refine_axis(y, 0, c, np.array([x.flat[n]]))[0] if self.method == \
+                    "cubic" else _linear_at(y, c, x.flat[n])
+            out[n] = y[:len(GRID_VARIABLES)]
+        return out
 
     def _check_fitted(self):
         if not hasattr(self, "table_"):
