@@ -97,7 +97,7 @@ UNEQUAL_RADII_ERROR = {"median": None, "max": None, "n_triplets": 0,
 
 #: default fine-grid nodes per table interval: gaps, theta, v (chosen from the
 #: refinement error measured by benchmarks/bench_triplet.py)
-DEFAULT_REFINE = (4, 4, 6)
+DEFAULT_REFINE = (4, 12, 6)
 MAX_REFINE = 16
 #: memory bound of the fine grid (values), bytes
 MAX_GRID_BYTES = 400e6
@@ -308,6 +308,24 @@ def _fill_failed(values, ok, axis_order):
 # --------------------------------------------------------------------------------------
 
 
+def _node_data(ds):
+    """Values (..., 5) of :data:`GRID_VARIABLES` at the table nodes, the mask of nodes
+    with a result and the node codes: 0 converged, 1 above tolerance, 2 failed (any
+    reason but the next), 3 no equilibrium of the coalesced body (failure kind
+    ``no_equilibrium``)."""
+    status = np.asarray(ds["status"].values)
+    failure = np.asarray(ds["failure"].values) if "failure" in ds else np.zeros_like(status)
+    kinds = list(json.loads(ds.attrs.get("failure_kinds", "{}")) or ["none"])
+    no_eq = kinds.index("no_equilibrium") if "no_equilibrium" in kinds else -1
+    vals = np.stack([np.asarray(ds[n].values, float) for n in
+                     ("f12", "f13", "f23", "pressure", "energy_extrapolated")], -1)
+    has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
+        np.isfinite(vals).all(-1)
+    code = np.where(status == Status.ABOVE_TOLERANCE, 1, 0)
+    code = np.where(~has, np.where(failure == no_eq, 3, 2), code)
+    return vals, has, code
+
+
 def _relabellings():
     """For each relabelling p of the grains (new grain k = old grain p[k]): the old pair
     of every new pair, as indices into PAIRS (the gap axes permute the same way)."""
@@ -417,18 +435,8 @@ class TripletSurrogate:
                 f"refine={self.refine} makes a fine grid of {n_fine:,} nodes "
                 f"(> {MAX_GRID_BYTES / 1e6:g} MB); use a smaller refine")
 
-        # node codes: 0 converged, 1 above tolerance, 2 failed, 3 no equilibrium
+        vals, has, code = _node_data(ds)
         status = np.asarray(ds["status"].values)
-        failure = np.asarray(ds["failure"].values) if "failure" in ds else \
-            np.zeros_like(status)
-        kinds = list(json.loads(ds.attrs.get("failure_kinds", "{}")) or ["none"])
-        no_eq = kinds.index("no_equilibrium") if "no_equilibrium" in kinds else -1
-        vals = np.stack([np.asarray(ds[n].values, float) for n in
-                         ("f12", "f13", "f23", "pressure", "energy_extrapolated")], -1)
-        has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
-            np.isfinite(vals).all(-1)
-        code = np.where(status == Status.ABOVE_TOLERANCE, 1, 0)
-        code = np.where(~has, np.where(failure == no_eq, 3, 2), code)
         ferr = np.where(has, np.nan_to_num(np.asarray(ds["force_error"].values, float)), 0.0)
         extra = [ferr]
         # the separated-state energy, if any: interpolated as E_coal - E_sep
