@@ -51,7 +51,7 @@ from capbridge.generator.sweep import run_sweep
 from capbridge.status import Status, cf_flag_attributes
 
 __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_table",
-           "reference_chunk", "coalesced_chunk", "FAILURE_KINDS", "failure_kind"]
+           "reference_chunk", "separated_chunk", "coalesced_chunk", "FAILURE_KINDS", "failure_kind"]
 
 PAIRS = ((0, 1), (0, 2), (1, 2))
 PAIR_NAMES = ("f12", "f13", "f23")
@@ -90,6 +90,9 @@ ATTRS = {
         units="1", long_name="exact coalescence volume V*_coal of the two separate bridges "
                              "on the grain shared by the two smallest gaps, equal volume "
                              "shares (capbridge.generator.triplet.find_coalescence)"),
+    "energy_separated": dict(units="1", long_name="energy E* of the lowest separated state "
+                             "(exact bridges at equal pressure) at the same total volume; "
+                             "NaN where no separated state exists"),
     "force": dict(units="1", long_name="force of the liquid on each grain F* = F/(2 pi "
                                        "gamma r), Richardson-extrapolated virtual work"),
     "f12": dict(units="1", long_name="effective pair force between grains 1 and 2 along "
@@ -203,6 +206,20 @@ def reference_chunk(d12, d13, d23, theta):
     return {"volume_coalescence": out, "status": status}
 
 
+def separated_chunk(d12, d13, d23, theta, volume):
+    """Energy of the lowest separated state (exact bridges at equal pressure) at the
+    same total volume (:func:`capbridge.generator.triplet_coalescence.lowest_separated_energy`)."""
+    from capbridge.generator.triplet_coalescence import lowest_separated_energy
+
+    energy = np.full(d12.size, np.nan)
+    status = np.full(d12.size, int(Status.NOT_CONVERGED), np.int8)
+    for n in range(d12.size):
+        if np.isfinite(volume[n]):
+            r = lowest_separated_energy(d12[n], d13[n], d23[n], volume[n], theta[n])
+            energy[n], status[n] = r["energy"], r["status"]
+    return {"energy_separated": energy, "status": status}
+
+
 _FORCE_COLUMNS = [f"force_{g + 1}{c}" for g in range(3) for c in COMPONENTS]
 _POINT_OUTPUTS = (["pressure", "energy", "energy_extrapolated", "energy_error",
                    "force_error", "force_error_rel", "direct_vs_virtual_work",
@@ -312,13 +329,17 @@ def _holdout_points(grid, n, seed):
 
 def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
                         n_holdout=0, checkpoint_dir=None, n_jobs=None, scheduler=None,
-                        progress=True, command=None, seed=1) -> xr.Dataset:
+                        progress=True, command=None, seed=1,
+                        exact_only=False) -> xr.Dataset | None:
     """Run the sweep (resumable) and return the table as a labelled Dataset.
 
     Phases: exact coalescence volumes of the canonical geometries; the coalesced body
     at every canonical (geometry, theta, v) point; ``n_holdout`` held-out points one
     level finer.  Each phase is its own checkpointed sweep; a phase with failed chunks
     stops the build (rerun to retry) instead of computing on placeholders.
+    ``exact_only``: run the exact phases (coalescence volumes, separated-state
+    energies) into the checkpoints and return None, e.g. beside a running Evolver
+    sweep on the same checkpoint directory.
     """
     plan = plan or EvolverPlan()
     canon = grid.canonical_geometries()
@@ -331,10 +352,7 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
         res = run_sweep(fn, inputs, checkpoint_dir=ck, chunk_size=chunk_size, n_jobs=n_jobs,
                         scheduler=scheduler, progress=progress, desc=name,
                         settings=settings)
-        if res.failures:
-            raise RuntimeError(f"{len(res.failures)} chunks of the {name} phase failed "
-                               f"({res.failures[0]}); rerun the same command to retry them")
-        return res
+        return res.raise_if_failed()
 
     G, T = np.repeat(canon, nt, axis=0), np.tile(theta, nc)
     ref = phase("coalescence_volumes", reference_chunk,
@@ -344,6 +362,10 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     Gp = np.repeat(canon, nt * nv, axis=0)
     pts = {"d12": Gp[:, 0], "d13": Gp[:, 1], "d23": Gp[:, 2],
            "theta": np.tile(np.repeat(theta, nv), nc), "volume": vol.ravel()}
+    # the exact separated states first: minutes, where the Evolver phase takes hours
+    sep = phase("separated_energies", separated_chunk, pts, 4, {})
+    if exact_only:
+        return None
     res = phase("coalesced_bodies", functools.partial(coalesced_chunk, plan=plan), pts, 1,
                 plan.settings())
     shape = (nc, nt, nv)
@@ -354,6 +376,7 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     for name in ("refinement", "n_facets", "failure", "status"):
         per[name] = res[name].reshape(shape)
     per["volume"] = vol
+    per["energy_separated"] = sep["energy_separated"].reshape(shape)
     per["volume_coalescence"] = vref
     cube = _expand_to_cube(grid, canon, per)
 
