@@ -8,16 +8,22 @@ V*_coal(d12, d13, d23, theta) is the exact coalescence volume of the two bridges
 grain shared by the two smallest gaps.  :class:`TripletSurrogate` follows
 :class:`~capbridge.surrogate.doublet.DoubletSurrogate`:
 
-* ``fit`` refines the coarse table once to a fine grid by splines along each axis
-  (cubic where the axis has >= 4 nodes, quadratic with 3; ``method="linear"`` keeps
-  the raw grid), in the physical coordinates (gaps, theta, v);
-* ``predict`` is then a multilinear lookup on that grid: V*_coal first (4-D), then
-  v = V*/V*_coal, then the pair forces, P* and E* (5-D), with precomputed strides and
-  no search (a linear index map on the non-uniform v axis).
+* ``fit`` averages the cube over the 6 relabellings of the grains (a no-op away from
+  equal gaps; at equal gaps it averages the Evolver noise between pair forces that are
+  equal by symmetry), then refines it once to a fine grid by splines along each axis
+  (cubic where the axis has >= 4 nodes, quadratic with 3) in the physical coordinates
+  (gaps, theta, v); ``method="linear"`` keeps the raw grid (multilinear, for
+  comparison);
+* ``predict`` looks up V*_coal (4-D), forms v = V*/V*_coal, then the pair forces, P*
+  and E* (5-D), by piecewise-linear interpolation on the Kuhn simplices of the fine
+  grid (6 corners instead of the 32 of multilinear; exact at the nodes, continuous),
+  with precomputed strides and no search (a linear index map on the non-uniform v
+  axis).  Its error against the spline interpolant it stands for and the held-out
+  errors are in ``benchmarks/RESULTS.md`` ("Triplet surrogate").
 
-Permutation symmetry (relabelling the grains permutes the pair forces) holds exactly:
-the table is the full cube of relabelled copies, every gap axis is refined by the same
-operator, and multilinear weights permute with the gaps.
+Permutation symmetry (relabelling the grains permutes the pair forces) holds to
+round-off: the symmetrised cube, one refinement operator for the three gap axes, and a
+triangulation invariant under permutations of the axes.
 
 Statuses (:class:`~capbridge.status.Status`) per point, from the table nodes of the
 coarse cell the point falls in:
