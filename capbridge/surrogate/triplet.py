@@ -1037,7 +1037,7 @@ def holdout_errors(surrogate, by="volume", permute=False):
     g = np.stack([h["d12"], h["d13"], h["d23"]], 1)
     f_ref = np.stack([h[n] for n in PAIR_NAMES], 1)
     perms = list(itertools.permutations(range(3))) if permute else [(0, 1, 2)]
-    errs, used = [], []
+    errs, used, refs = [], [], []
     keep = surrogate.out_of_range
     surrogate.out_of_range = "clip"          # v of a held-out point may sit on the edge
     try:
@@ -1056,13 +1056,19 @@ def holdout_errors(surrogate, by="volume", permute=False):
                             for i, j in PAIRS], 1)
             ok = h["ok"] & np.isin(r["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE))
             errs.append(np.abs(f_sur / ref - 1.0))
+            refs.append(np.abs(ref))
             used.append(ok)
     finally:
         surrogate.out_of_range = keep
     e = np.concatenate(errs)
     u = np.concatenate(used)
     sel = e[u]
+    # the same errors relative to the largest pair force of the point (small pair
+    # forces, e.g. at theta -> 80 deg and large v, make the plain relative error large)
+    ref_all = np.concatenate(refs)
+    e_max = e * ref_all / ref_all.max(axis=1, keepdims=True)
     return {"rel_error": e, "used": u,
             "median_rel_error": float(np.median(sel)) if sel.size else np.nan,
             "max_rel_error": float(np.max(sel)) if sel.size else np.nan,
+            "max_rel_to_largest": float(np.max(e_max[u])) if sel.size else np.nan,
             "n": int(u.sum()), "by": by}
