@@ -1,0 +1,279 @@
+"""LiquidClusters (coalesced triplets in the DEM engine), plain numpy, no YADE.
+
+Three equal grains (r = 1 mm) with two bridges on the shared grain 2, at a volume a
+little above the exact coalescence volume (the detector merges them), then moved out of
+the table or given a table that prefers the separated state.  Checks: the cluster holds
+exactly the bridges' liquid, the grains get the surrogate's forces (and the bridges
+none), a split shares the liquid at equal Laplace pressure (exact doublets, independent
+check) with the budget exact to 1e-12, >= 4-grain clusters keep their doublet forces
+and are counted, the table is read only at the first merge candidate.
+
+The triplet table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default the shipped
+``data/triplet_table.nc``); the tests that need it are skipped without it.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
+from capbridge.dem_plugin.coalescence_detect import find_coalescence
+from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
+from capbridge.dimensionless import force_scale
+from capbridge.status import Status
+from capbridge.surrogate.triplet import TripletSurrogate, default_table
+from capbridge.validation import CapbridgeInputError
+
+TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
+needs_table = pytest.mark.skipif(not TABLE.exists(), reason=f"no triplet table at {TABLE}")
+R = 1e-3
+GAMMA = 0.073
+
+
+@pytest.fixture(scope="module")
+def sur():
+    return TripletSurrogate(out_of_range="clip").fit(TABLE)
+
+
+@pytest.fixture(scope="module")
+def doublets():
+    """The scene table for equal grains at the test's angle, built once."""
+    m = BridgeModel([R] * 3, 0.0, default_table_path(), GAMMA, LiquidRule(bridge_volume=1e-10))
+    return m.table
+
+
+def _geometry(sur, theta=0.0, v=1.15):
+    """Gaps inside the table (a quarter and a half of its gap range, the shared grain
+    2 at the wider two) and the total volume v V*_coal."""
+    lo, hi = sur.gaps_[0], sur.gaps_[-1]
+    g01, g = lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo)
+    Vc = float(sur.coalescence_volume(g01, g, g, theta)["volume_coalescence"])
+    return (g01, g, g), v * Vc * R**3
+
+
+def _model(centres, pairs, volumes, theta, doublets, conserve=False):
+    """A BridgeModel with the given bridges (fixed volumes, or conserved liquid with
+    nothing on the films)."""
+    n = centres.shape[0]
+    if conserve:
+        rule = LiquidRule(total_liquid=float(np.sum(volumes)), conserve=True)
+    else:
+        rule = LiquidRule(bridge_volume=float(volumes[0]))
+    m = BridgeModel([R] * n, theta, doublets if n == 3 else default_table_path(), GAMMA, rule)
+    m.initialise(centres, pairs=pairs)
+    if conserve:
+        # the initial bridges take the films' liquid by the film rule: put it back
+        # and give every bridge its volume, films empty (the ledger: total liquid)
+        m.films[:] = 0.0
+        from capbridge.dem_plugin.triplet_clusters import set_bridge_volumes
+        set_bridge_volumes(m, np.arange(m.n_bridges), np.asarray(volumes, float))
+    return m
+
+
+def _check(m, pos):
+    geom = m.update(pos, form=False)
+    rep = find_coalescence(pos, m.bi, m.bj, *m.filling_angles(geom["gap"]), m.vol, m.n)
+    return geom, rep
+
+
+def _merged(sur, doublets, theta=0.0, conserve=False, v=1.15):
+    g, V = _geometry(sur, theta, v)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], theta, doublets, conserve)
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    geom, rep = _check(m, pos)
+    assert rep.n_triplets == 1
+    out = cl.step(m, pos, geom, rep)
+    return m, cl, pos, V, geom, out
+
+
+@needs_table
+def test_merge_volume_and_forces_are_the_surrogates(sur, doublets):
+    """Merge: one cluster of exactly the two bridges' volume; the grains get the
+    surrogate's force vectors at the three centres (F* 2 pi gamma r) within 1e-12,
+    summing to zero; the bridges' doublet forces are replaced (0); the ledger does not
+    move."""
+    m, cl, pos, V, geom, out = _merged(sur, doublets)
+    assert cl.events["merged"] == 1 and cl.n == 1
+    assert cl.volume[0] == float(m.vol.sum())              # the bridges' liquid, exactly
+    assert cl.volume[0] == pytest.approx(V, rel=1e-15)
+    np.testing.assert_array_equal(geom["force"], 0.0)
+    ref = sur.predict_vectors(pos / R, V / R**3, 0.0)
+    assert ref["status"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE)
+    F = ref["forces"] * force_scale(R, GAMMA)
+    np.testing.assert_allclose(out["forces"], F, rtol=1e-12, atol=1e-15 * np.abs(F).max())
+    np.testing.assert_allclose(out["forces"].sum(0), 0.0, atol=1e-12 * np.abs(F).max())
+    assert m.budget()["balance_error"] < 1e-15
+    assert cl.report()["statuses"][0] in ("converged", "above_tolerance")
+    # the doublet forces it replaces are not the same (the test means something)
+    dbl = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
+    f_dbl = dbl.grain_forces(dbl.update(pos, form=False))[0]
+    assert np.abs(f_dbl - F).max() > 1e-3 * np.abs(F).max()
+
+
+@needs_table
+@pytest.mark.parametrize("conserve", [False, True])
+def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve):
+    """Grain 1 pulled out of the table's gap range: the cluster splits (geometry), the
+    two bridges share its liquid at equal Laplace pressure (exact doublets at their own
+    gaps and volumes, an independent solve), their volumes add up to the cluster's to
+    1e-12, the ledger balances to 1e-12, the doublet forces are back."""
+    from capbridge.generator.young_laplace import solve_doublet
+
+    m, cl, pos, V, _, _ = _merged(sur, doublets, conserve=conserve)
+    pos = pos.copy()
+    u = (pos[1] - pos[2]) / np.linalg.norm(pos[1] - pos[2])
+    pos[1] += u * (sur.gaps_[-1] * 1.3 - sur.gaps_[0]) * R        # beyond the table
+    geom = m.update(pos)
+    out = cl.step(m, pos, geom, None)
+    assert cl.events["split_geometry"] == 1 and cl.n == 0
+    assert cl.events["split_share_fallback"] == 0
+    assert m.n_bridges == 2
+    assert m.vol.sum() == pytest.approx(V, rel=1e-12)
+    assert abs(m.vol[0] - m.vol[1]) > 1e-3 * V       # unequal gaps: unequal shares
+    b = m.budget()
+    assert b["balance_error"] < 1e-12
+    gaps = out["geom"]["gap"]
+    P = solve_doublet(gaps / R, m.vol / R**3, 0.0)["pressure"]
+    assert P[0] == pytest.approx(P[1], rel=1e-7)
+    np.testing.assert_array_equal(out["forces"], 0.0)
+    assert np.all(out["geom"]["force"] > 0)
+
+
+@needs_table
+def test_split_share_fallback_keeps_merge_volumes(sur, doublets):
+    """split_solver='merge_volumes': the bridges keep exactly their merge-time volumes
+    (counted as a share fallback)."""
+    g, V = _geometry(sur)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
+    cl = LiquidClusters(GAMMA, surrogate=sur, split_solver="merge_volumes")
+    cl.step(m, pos, *_check(m, pos))
+    before = m.vol.copy()
+    pos[1, 0] += 0.5 * R
+    cl.step(m, pos, m.update(pos), None)
+    assert cl.events["split_geometry"] == 1
+    assert cl.events["split_share_fallback"] == 1
+    np.testing.assert_array_equal(m.vol, before)
+
+
+@needs_table
+def test_split_when_the_separated_state_is_lower(sur, doublets):
+    """The energy rule: with a table whose separated state is lower everywhere
+    (E_sep = E_coal - 0.5, a constructed field: this tests the rule, not the physics)
+    a merged cluster splits (split_energy) and a new one is refused (merge_refused)."""
+    from capbridge.generator.netcdf_io import read_table
+
+    ds = read_table(TABLE)
+    e_sep = ds["energy_extrapolated"] - 0.5
+    e_sep.name = "energy_separated"
+    lower = TripletSurrogate(out_of_range="clip").fit(ds, separated_energy=e_sep)
+    m, cl, pos, V, _, _ = _merged(sur, doublets)
+    cl._sur = lower
+    cl.step(m, pos, m.update(pos), None)
+    assert cl.events["split_energy"] == 1 and cl.n == 0
+    assert m.vol.sum() == pytest.approx(V, rel=1e-12)
+    cl.step(m, pos, *_check(m, pos))
+    assert cl.n == 0 and cl.events["merge_refused"] == 1 and cl.events["merged"] == 1
+
+
+def test_funicular_cluster_keeps_doublets_and_no_table_is_read(doublets):
+    """Four grains around a shared one with three bridges whose caps meet: one cluster
+    of 4 grains -> counted once (not again at the next check), reported, doublet forces
+    kept, no triplet table read (a missing table would raise)."""
+    # grain 0 at the centre, three neighbours at 0, 70 and 140 deg, gaps 0.1 r
+    ang = np.radians([0.0, 70.0, 140.0])
+    pos = np.vstack([[0.0, 0.0, 0.0],
+                     np.column_stack([np.cos(ang), np.sin(ang), 0 * ang]) * 2.1]) * R
+    m = BridgeModel([R] * 4, 0.0, default_table_path(), GAMMA, LiquidRule(bridge_volume=0.2 * R**3))
+    m.initialise(pos, pairs=[(0, 1), (0, 2), (0, 3)])
+    cl = LiquidClusters(GAMMA, table="/nonexistent/triplet.nc")
+    for k in range(2):
+        geom, rep = _check(m, pos)
+        assert rep.n_clusters == 1 and rep.clusters[0].size == 3
+        f0 = geom["force"].copy()
+        out = cl.step(m, pos, geom, rep)
+        np.testing.assert_array_equal(out["geom"]["force"], f0)
+        np.testing.assert_array_equal(out["forces"], 0.0)
+    r = cl.report()
+    assert r["events"]["funicular_fallback"] == 1
+    assert r["funicular"]["clusters"] == 1 and r["funicular"]["grains"] == 4
+    assert r["funicular"]["volume"] == pytest.approx(0.6 * R**3, rel=1e-12)
+    assert not cl.loaded and cl.n == 0
+
+
+def test_lazy_load_only_at_a_merge_candidate(doublets):
+    """No coalescence: nothing is read (the table path does not even exist); the first
+    merge candidate reads it (here: a clear error naming the missing file)."""
+    g = (0.1, 0.1, 0.1)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    m = _model(pos, [(0, 2), (1, 2)], [0.01 * R**3] * 2, 0.0, doublets)   # caps apart
+    cl = LiquidClusters(GAMMA, table="/nonexistent/triplet.nc")
+    geom, rep = _check(m, pos)
+    assert rep.n_triplets == 0
+    out = cl.step(m, pos, geom, rep)
+    assert not cl.loaded and cl.loads == 0 and out["geom"] is geom
+    m2 = _model(pos, [(0, 2), (1, 2)], [0.2 * R**3] * 2, 0.0, doublets)   # caps meet
+    geom, rep = _check(m2, pos)
+    assert rep.n_triplets == 1
+    with pytest.raises(CapbridgeInputError, match="nonexistent"):
+        cl.step(m2, pos, geom, rep)
+
+
+@needs_table
+def test_lazy_load_reads_the_table_once(doublets):
+    cl = LiquidClusters(GAMMA, table=TABLE)
+    sur = TripletSurrogate(out_of_range="clip").fit(TABLE)
+    g, V = _geometry(sur)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
+    assert not cl.loaded
+    for _ in range(3):
+        cl.step(m, pos, *_check(m, pos))
+    assert cl.loads == 1 and cl.n == 1 and cl.events["merged"] == 1
+
+
+@needs_table
+def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
+    """A ring of three bridges (the two on grain 2 at 0.55 V*_coal each, the one
+    between grains 0 and 1 at 0.1 V*_coal): one cluster holding all three, volume
+    exact; its state saved and restored gives the same forces."""
+    g, V = _geometry(sur, v=1.2)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    vols = np.array([0.1, 0.55, 0.55]) * V / 1.2
+    m = _model(pos, [(0, 1), (0, 2), (1, 2)], vols, 0.0, doublets, conserve=True)
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    geom, rep = _check(m, pos)
+    assert rep.n_triplets >= 1
+    out = cl.step(m, pos, geom, rep)
+    assert cl.n == 1 and (cl.members[0] >= 0).all()
+    assert cl.volume[0] == float(m.vol.sum())
+    cl2 = LiquidClusters(GAMMA, surrogate=sur)
+    cl2.set_state(cl.get_state())
+    out2 = cl2.step(m, pos, m.update(pos), None)
+    np.testing.assert_array_equal(out2["forces"], out["forces"])
+    assert cl2.events == cl.events
+
+
+@needs_table
+def test_unequal_radii_are_approximate_and_counted(sur):
+    """Radii 1 and 1.1 mm: merged with the surrogate's unequal-radii approximation
+    (status approximate), counted; forces those of predict_vectors(radii=...)."""
+    radii = np.array([1.0, 1.1, 1.0]) * R
+    g, V = _geometry(sur, v=1.25)
+    L = [radii[a] + radii[b] + gg * R for (a, b), gg in zip(((0, 1), (0, 2), (1, 2)), g)]
+    pos = triangle_centres(*L)
+    m = BridgeModel(radii, 0.0, default_table_path(), GAMMA, LiquidRule(bridge_volume=V / 2))
+    m.initialise(pos, pairs=[(0, 2), (1, 2)])
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    geom, rep = _check(m, pos)
+    assert rep.n_triplets == 1
+    out = cl.step(m, pos, geom, rep)
+    assert cl.events["approximate"] == 1 and cl.report()["statuses"] == ["approximate"]
+    ref = sur.predict_vectors(pos / R, V / R**3, 0.0, radii=radii / R)
+    assert ref["status"] == Status.APPROXIMATE
+    np.testing.assert_allclose(out["forces"], ref["forces"] * force_scale(R, GAMMA),
+                               rtol=1e-12, atol=1e-15)
