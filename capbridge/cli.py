@@ -18,7 +18,10 @@ from capbridge.reproduce import STUDIES
 from capbridge.status import Status, status_name
 from capbridge.validation import CapbridgeInputError, check_range, interval_text
 
-DEFAULT_TABLE = Path(__file__).resolve().parent.parent / "data" / "doublet_table.nc"
+DATA = Path(__file__).resolve().parent.parent / "data"
+DEFAULT_TABLE = DATA / "doublet_table.nc"
+DEFAULT_TRIPLET_TABLE = DATA / "triplet_table.nc"
+DEFAULT_COALESCENCE_TABLE = DATA / "triplet_coalescence.nc"
 
 
 def _json_value(v):
@@ -166,11 +169,22 @@ HOLDOUT_BAND = 0.2
 
 
 def cmd_info_table(args):
+    """Describe one table, or every shipped table when no --table is given."""
     from capbridge.generator.netcdf_io import read_table
 
+    if args.table is None:
+        for path in (DEFAULT_TABLE, DEFAULT_TRIPLET_TABLE, DEFAULT_COALESCENCE_TABLE):
+            if path.exists():
+                cmd_info_table(argparse.Namespace(table=path))
+        return 0
+    ds = read_table(args.table)
+    if "f12" in ds:
+        return _info_triplet(ds, args.table)
+    if "ratio" not in ds.dims:
+        return _info_generic(ds, args.table)
     from capbridge.generator.doublet_table import validate_doublet_table
 
-    ds = validate_doublet_table(read_table(args.table), args.table)
+    ds = validate_doublet_table(ds, args.table)
     print(f"table: {args.table}")
     print(f"  made by: {ds.attrs.get('capbridge_command')}")
     print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; data checksum: "
@@ -185,9 +199,177 @@ def cmd_info_table(args):
     for k, v in sorted(ds.attrs.items()):
         if k.startswith("holdout_") and k != "holdout_description":
             print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
+    _print_holdout(ds)
+    return 0
+
+
+def _print_header(ds, path, axes):
+    print(f"table: {path}")
+    print(f"  {ds.attrs.get('title', '')}")
+    print(f"  made by: {ds.attrs.get('capbridge_command')}")
+    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; data checksum: "
+          f"{'verified' if 'data_sha256' in ds.attrs else 'none'}")
+    for name in axes:
+        c = ds[name].values
+        print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  "
+              f"({ds[name].attrs.get('long_name', '')})")
+
+
+def _print_holdout(ds):
+    print("  error model (held-out points):")
+    for k, v in sorted(ds.attrs.items()):
+        if k.startswith("holdout_") and k not in ("holdout_description",
+                                                  "holdout_evolver_settings"):
+            print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
     if "holdout_description" in ds.attrs:
         print(f"    ({ds.attrs['holdout_description']})")
+
+
+def _info_triplet(ds, path):
+    _print_header(ds, path, ("d12", "d13", "d23", "theta", "v"))
+    st = ds["status"].values
+    counts = ", ".join(f"{status_name(c)} {int((st == c).sum())}" for c in np.unique(st))
+    print(f"  points: {st.size} ({counts}); Evolver settings: "
+          f"{ds.attrs.get('evolver_settings')}")
+    ok = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+    if ok.any():
+        cpu = ds["cpu_time"].values[ok]
+        err = ds["force_error_rel"].values[ok]
+        print(f"  per point: median {np.median(cpu):.1f} CPU s; estimated force error "
+              f"median {np.nanmedian(err):.2%}, max {np.nanmax(err):.2%}")
+    _print_holdout(ds)
     return 0
+
+
+def _info_generic(ds, path):
+    _print_header(ds, path, [d for d in ds.dims if d in ds.coords
+                             and not d.startswith("heldout")])
+    for k, v in sorted(ds.attrs.items()):
+        if "error" in k and not isinstance(v, str) or k.startswith("interpolation_error"):
+            print(f"    {k}: {v}")
+    return 0
+
+
+def _command_line(args):
+    import shlex
+
+    words = getattr(args, "argv", sys.argv[1:])
+    return "capbridge " + " ".join(shlex.quote(w) for w in words)
+
+
+def _load_triplet_surrogate(path, coalescence_table=None, out_of_range="raise"):
+    from capbridge.surrogate.triplet import TripletSurrogate
+
+    path = Path(path)
+    if not path.exists():
+        raise CapbridgeInputError(f"triplet table {path} not found; make it with "
+                                  "`capbridge generate triplet`")
+    coal = coalescence_table
+    if coal is None and DEFAULT_COALESCENCE_TABLE.exists():
+        coal = DEFAULT_COALESCENCE_TABLE
+    return TripletSurrogate(out_of_range=out_of_range, clip_hint="--clip").fit(
+        path, coalescence_table=coal)
+
+
+#: lookup triplet: CSV columns read and written
+TRIPLET_INPUTS = ("d12", "d13", "d23", "V", "theta")
+TRIPLET_OUTPUTS = {"f12": "f12", "f13": "f13", "f23": "f23", "pressure": "P",
+                   "volume_coalescence": "V_coal", "v": "v", "V0": "V0", "dV": "dV",
+                   "energy_difference": "E_coal_minus_E_sep", "force_error": "f_error"}
+TRIPLET_RESERVED = tuple(TRIPLET_OUTPUTS.values()) + ("status", "lower_energy_state")
+
+
+def cmd_lookup_triplet(args):
+    import pandas as pd
+
+    from capbridge.surrogate.triplet import LOWER_ENERGY_STATES
+    from capbridge.tabular_io import check_new_output, read_points_csv
+
+    columns, x = read_points_csv(args.input, TRIPLET_INPUTS, (), TRIPLET_RESERVED)
+    check_new_output(args.output, inputs=[args.input], overwrite=args.overwrite)
+    sur = _load_triplet_surrogate(args.table, args.coalescence_table,
+                                  "clip" if args.clip else "raise")
+    r = sur.predict(x["d12"], x["d13"], x["d23"], x["V"], x["theta"])
+    df = pd.DataFrame(columns)
+    for key, col in TRIPLET_OUTPUTS.items():
+        df[col] = r[key]
+    df["lower_energy_state"] = [LOWER_ENERGY_STATES[int(c)] for c in r["lower_energy_state"]]
+    df["status"] = [status_name(c) for c in r["status"]]
+    df.to_csv(args.output, index=False)
+    print(f"wrote {len(df)} rows to {args.output}", file=sys.stderr)
+    return 0
+
+
+def cmd_solve_triplet(args):
+    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.generator.triplet_evolver import evolver_triplet
+
+    geom = triplet_geometry(args.d12, args.d13, args.d23)
+    V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True,
+                          hint="total liquid volume V* = V/r^3"))
+    theta = float(check_range("--theta", args.theta, 0.0, 90.0, high_open=True,
+                              units=" deg"))
+    r = evolver_triplet(V, geom, theta, "coalesced", max_refine=args.max_refine,
+                        inspect_mesh=False)
+    out = {"d12": geom.d12, "d13": geom.d13, "d23": geom.d23, "V": V, "theta": theta,
+           "status": r["status"], "reason": r["reason"],
+           "centres": np.round(geom.centres, 12).tolist(),
+           "frame": "grains 2 and 3 on the x axis symmetric about x = 0, grain 1 at z > 0",
+           "forces": r["forces"], "force_error": r["force_error"],
+           "force_error_rel": r["force_error_rel"],
+           "pair_forces": r["pair_forces"], "pair_residual": r["pair_residual"],
+           "pressure": r["pressure"], "energy": r["energy_extrapolated"],
+           "energy_error": r["energy_error"], "refinement": r["refinement"],
+           "n_facets": r["n_facets"], "cpu_time": r["cpu_time"], "warnings": r["warnings"],
+           "units": "dimensionless by r and gamma: F* = F/(2 pi gamma r) (attraction > 0 "
+                    "for pair forces), P* = dp r/gamma, E* = E/(gamma r^2)"}
+    print(json.dumps(_json_tree(out), indent=1))
+    return 0 if r["status_code"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
+
+
+def cmd_generate_triplet(args):
+    from capbridge.generator.netcdf_io import check_table_target
+    from capbridge.generator.triplet_table import (TripletGrid, build_triplet_table,
+                                                   save_triplet_table)
+    from capbridge.surrogate.triplet import TripletSurrogate, holdout_errors
+
+    grid = TripletGrid.shipped(args.quick)
+    axes = {"d12": grid.gaps, "d13": grid.gaps, "d23": grid.gaps, "theta": grid.theta,
+            "v": grid.v, "holdout": list(range(args.holdout))}
+    # before hours of Evolver: can the table be written, would it replace another grid?
+    check_table_target(args.output, {k: list(map(float, v)) for k, v in axes.items()},
+                       overwrite=args.overwrite, flag="--overwrite")
+    command = args.command or _command_line(args)
+    ds = build_triplet_table(grid, n_holdout=args.holdout, checkpoint_dir=args.checkpoint_dir,
+                             n_jobs=args.jobs, scheduler=args.scheduler,
+                             progress=not args.no_progress, command=command)
+    coal = args.coalescence_table
+    if coal is None and DEFAULT_COALESCENCE_TABLE.exists() and not args.quick:
+        coal = DEFAULT_COALESCENCE_TABLE
+    if args.holdout:
+        sur = TripletSurrogate().fit(ds, coalescence_table=coal)
+        for by in ("volume", "v"):
+            h = holdout_errors(sur, by=by)
+            ds.attrs[f"holdout_median_rel_error_pair_force_by_{by}"] = h["median_rel_error"]
+            ds.attrs[f"holdout_max_rel_error_pair_force_by_{by}"] = h["max_rel_error"]
+            ds.attrs[f"holdout_n_by_{by}"] = h["n"]
+        ds.attrs["holdout_description"] = (
+            "relative error of the surrogate's pair forces f12, f13, f23 (cubic refinement, "
+            "default settings) against held-out Surface Evolver points one refinement level "
+            "finer than the table, at random canonical geometries, theta and v inside the "
+            "grid; by_volume: looked up at the total volume (includes the error of V_coal), "
+            "by_v: at the volume ratio (the force interpolation alone)")
+    save_triplet_table(ds, args.output, command=command, overwrite=args.overwrite)
+    print(f"wrote {args.output}", file=sys.stderr)
+    return cmd_info_table(argparse.Namespace(table=args.output))
+
+
+def cmd_generate_coalescence(args):
+    from capbridge.generator.triplet_coalescence import run_from_args
+
+    if args.output is None and not args.quick:
+        args.output = str(DEFAULT_COALESCENCE_TABLE)
+    return run_from_args(args, command=_command_line(args))
 
 
 def cmd_export_yade(args):
@@ -369,6 +551,16 @@ def build_parser():
     sd.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
     sd.add_argument("--ratio", type=float, default=1.0, help="R2/R1 >= 1")
     sd.set_defaults(func=cmd_solve_doublet)
+    st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
+                          "liquid body on three equal spheres (JSON out)")
+    st.add_argument("--d12", type=float, required=True, help="gap between grains 1 and 2, d/r")
+    st.add_argument("--d13", type=float, required=True, help="gap between grains 1 and 3, d/r")
+    st.add_argument("--d23", type=float, required=True, help="gap between grains 2 and 3, d/r")
+    st.add_argument("--V", type=float, required=True, help="total volume V* = V/r^3")
+    st.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
+    st.add_argument("--max-refine", type=_number(1, 6, integer=True), default=3,
+                    help="finest Evolver refinement level (default 3, as the table)")
+    st.set_defaults(func=cmd_solve_triplet)
 
     look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)
     ld = look.add_parser("doublet", help="interpolate forces for the rows of a CSV")
@@ -380,6 +572,19 @@ def build_parser():
                          "(status extrapolated, or ruptured) instead of failing")
     ld.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     ld.set_defaults(func=cmd_lookup_doublet)
+    lt = look.add_parser("triplet", help="coalesced-triplet pair forces for the rows of a CSV")
+    lt.add_argument("--input", required=True, help="CSV with columns d12, d13, d23, V, theta "
+                    "(gaps d/r, V* = V/r^3, theta in degrees)")
+    lt.add_argument("--output", required=True)
+    lt.add_argument("--table", default=str(DEFAULT_TRIPLET_TABLE))
+    lt.add_argument("--coalescence-table", default=None,
+                    help=f"exact V_coal over the geometry (default {DEFAULT_COALESCENCE_TABLE.name} "
+                         "if present)")
+    lt.add_argument("--clip", action="store_true",
+                    help="volumes above the table: answer at its largest V/V_coal (status "
+                         "extrapolated); below it: no number (no_equilibrium or out_of_range)")
+    lt.add_argument("--overwrite", action="store_true", help="replace an existing --output")
+    lt.set_defaults(func=cmd_lookup_triplet)
 
     gen = sub.add_parser("generate", help="regenerate tables").add_subparsers(dest="what", required=True)
     gd = gen.add_parser("doublet", help="sweep the exact solver into a netCDF table")
@@ -400,6 +605,29 @@ def build_parser():
     gd.add_argument("--no-progress", action="store_true")
     gd.add_argument("--command", default=None, help=argparse.SUPPRESS)
     gd.set_defaults(func=cmd_generate_doublet)
+    gt = gen.add_parser("triplet", help="Surface Evolver sweep of coalesced triplets into a "
+                        "netCDF table (hours; resumable)")
+    gt.add_argument("--output", default=str(DEFAULT_TRIPLET_TABLE))
+    gt.add_argument("--quick", action="store_true", help="small grid (tests)")
+    gt.add_argument("--overwrite", action="store_true",
+                    help="replace an existing --output of another grid")
+    gt.add_argument("--jobs", type=_number(1, 4096, integer=True), default=None,
+                    help="worker processes (default: all cores)")
+    gt.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    gt.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
+    gt.add_argument("--holdout", type=_number(0, 10**5, integer=True), default=12,
+                    help="held-out Evolver points one level finer, for the error model")
+    gt.add_argument("--coalescence-table", default=None,
+                    help="exact V_coal table for the error model (default the shipped one)")
+    gt.add_argument("--no-progress", action="store_true")
+    gt.add_argument("--command", default=None, help=argparse.SUPPRESS)
+    gt.set_defaults(func=cmd_generate_triplet)
+    from capbridge.generator.triplet_coalescence import add_arguments
+
+    gc = add_arguments(gen.add_parser(
+        "coalescence", help="exact coalescence volumes of three equal spheres over the "
+                            "geometry and theta into a netCDF table (minutes)"))
+    gc.set_defaults(func=cmd_generate_coalescence)
 
     ex = sub.add_parser("export-yade", help="write YADE's native capillary files (M(r=...) sets, "
                         "CapillarityEngine input) from the exact suction-controlled solver")
@@ -410,7 +638,8 @@ def build_parser():
     ex.set_defaults(func=cmd_export_yade)
 
     info = sub.add_parser("info", help="describe a table and its error model")
-    info.add_argument("--table", default=str(DEFAULT_TABLE))
+    info.add_argument("--table", default=None,
+                      help="a table (default: every shipped table in data/)")
     info.set_defaults(func=cmd_info_table)
 
     demo = sub.add_parser("demo", help="F*(d*) from the shipped table beside the exact solution")
