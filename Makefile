@@ -49,9 +49,13 @@ bench-evolver: setup
 reproduce: setup
 	$(VENV)/bin/capbridge reproduce miot2021 --checkpoint-dir .sweep-checkpoints/miot2021
 
-# Regenerates the shipped table (resumable: rerun after a kill to continue).
+# Regenerates the shipped tables (resumable: rerun after a kill to continue).  The
+# doublet and coalescence tables take minutes; the triplet table hours of Surface Evolver
+# (its checkpoints in .sweep-checkpoints/triplet are reused point by point).
 data: setup
 	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
+	$(VENV)/bin/capbridge generate coalescence --checkpoint-dir .sweep-checkpoints/triplet_coalescence
+	$(VENV)/bin/capbridge generate triplet --jobs 2 --holdout 12 --checkpoint-dir .sweep-checkpoints/triplet
 
 clean:
 	rm -rf out .sweep-checkpoints
