@@ -39,6 +39,7 @@ import numpy as np  # noqa: E402
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 CACHE = HERE / "triplet_unequal_evolver.json"
+VCOAL_CACHE = HERE / "triplet_vcoal_exact.json"
 
 #: (radii R1, R2, R3; gaps d12, d13, d23 between surfaces; theta [deg]; target v) in
 #: units of the smallest radius.  Gaps <= 0.15 R_min keep every normalisation of the
@@ -144,6 +145,51 @@ def run_evolver(cases=UNEQUAL_CASES, cache=CACHE):
         print(f"case {n + 1}/{len(cases)}: {entry['status']} in {entry['cpu_time']:.1f} CPU s"
               f" (pair forces {entry.get('pair_forces')})", flush=True)
     return done
+
+
+def run_vcoal(n=16, seed=11, cache=VCOAL_CACHE):
+    """Exact V*_coal (find_coalescence at the sorted gaps) at n random geometries and
+    angles inside the shipped table's box (gaps 0-0.2, theta 0-80 deg); cached."""
+    from capbridge.dimensionless import canonical_triplet
+    from capbridge.generator.atomic import atomic_target
+    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        g = rng.uniform(0.0, 0.2, 3)
+        t = float(rng.uniform(0.0, 80.0))
+        srt, _ = canonical_triplet(*g)
+        r = find_coalescence(triplet_geometry(*srt), t)
+        out.append({"gaps": g.tolist(), "theta": t,
+                    "V_coal": r.V_coal if r.status == "coalescence" else None})
+    with atomic_target(cache) as tmp:
+        Path(tmp).write_text(json.dumps({"seed": seed, "points": out}, indent=1) + "\n")
+    return out
+
+
+def vcoal_errors(table, coalescence_table=None, cache=VCOAL_CACHE):
+    """Relative V*_coal errors at the cached exact points, per way of getting it."""
+    from capbridge.surrogate.triplet import TripletSurrogate
+
+    pts = [p for p in json.loads(cache.read_text())["points"] if p["V_coal"]]
+    g = np.array([p["gaps"] for p in pts]).T
+    t = np.array([p["theta"] for p in pts])
+    V = np.array([p["V_coal"] for p in pts])
+    ways = [("triplet table, splines", "cubic", None),
+            ("triplet table, multilinear", "linear", None)]
+    if coalescence_table:
+        ways.append(("coalescence table (sorted gaps, cubic) + node residual", "cubic",
+                     coalescence_table))
+    out = {}
+    for name, method, ct in ways:
+        s = TripletSurrogate(method=method).fit(table, coalescence_table=ct)
+        r = s.coalescence_volume(*g, t)
+        e = np.abs(r["volume_coalescence"] / V - 1)
+        law = np.abs((r["V0"] + t / 90 * r["dV"]) / V - 1)
+        out[name] = (float(np.median(e)), float(np.max(e)), float(np.median(law)),
+                     float(np.max(law)), len(V))
+    return out
 
 
 def _rate(fn, n, repeat=3):
@@ -279,6 +325,7 @@ def bench(args):
 
     t0 = time.perf_counter()
     rows, refine_err, sur = accuracy(args.table, args.coalescence_table)
+    vce = vcoal_errors(args.table, args.coalescence_table)
     tp = throughput(sur, args.n)
     une, data = unequal(sur)
     cpu = [e["cpu_time"] for e in data.values()]
@@ -318,6 +365,14 @@ def bench(args):
         mode = {"volume": "V* (V*_coal interpolated too)", "v": "v = V*/V*_coal (exact)"}[by]
         lines.append(f"| {name} | {mode} | {med:.2e} | {mx:.2e} | {mxl:.2e} | {3 * n} "
                      f"({n} / {tot}) |")
+    lines += ["", "V*_coal (the volume scale of v) against exact coalescence volumes at "
+              f"{next(iter(vce.values()))[4]} random geometries and angles "
+              "(`benchmarks/triplet_vcoal_exact.json`, `bench_triplet.py vcoal`); the "
+              "linear law V0 + (theta/90) dV beside it:", "",
+              "| V*_coal from | median | max | linear law: median | max |",
+              "|---|---:|---:|---:|---:|"]
+    for name, (m1, x1, m2, x2, _) in vce.items():
+        lines.append(f"| {name} | {m1:.1e} | {x1:.1e} | {m2:.1e} | {x2:.1e} |")
     lines += ["", f"V*_coal at the {vc[2]} held-out geometries (exact: their V* / v) against "
               f"the surrogate's ({sur_source(args)}): median {vc[0]:.1e}, max {vc[1]:.1e} "
               "relative."]
@@ -363,7 +418,7 @@ def _write_section(path, text):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("step", nargs="?", default="bench", choices=("bench", "evolver"))
+    p.add_argument("step", nargs="?", default="bench", choices=("bench", "evolver", "vcoal"))
     p.add_argument("--table", default=os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
                                                      str(ROOT / "data" / "triplet_table.nc")))
     p.add_argument("--coalescence-table", default=None)
@@ -373,6 +428,9 @@ def main(argv=None):
     args = p.parse_args(argv)
     if args.step == "evolver":
         run_evolver()
+        return 0
+    if args.step == "vcoal":
+        run_vcoal()
         return 0
     return bench(args)
 
