@@ -392,3 +392,13 @@ def test_lower_energy_state(table, sur):
         assert np.all(r["lower_energy_state"][ok] == code), shift
         np.testing.assert_allclose(r["energy_difference"][ok], -shift, atol=1e-9)
         assert np.all(r["lower_energy_state"][~ok] == 3)
+
+
+def test_summary_for_info(sur):
+    """The error model and fit description are JSON-ready and count every cell."""
+    import json
+
+    d = json.loads(json.dumps(sur.summary()))
+    n_cells = int(np.prod([len(x) - 1 for x in (d["gaps"],) * 3 + (d["theta"], d["v"])]))
+    assert sum(d["cells"].values()) == n_cells
+    assert d["holdout_error"] is None or d["holdout_error"]["n"] >= 1

@@ -612,6 +612,20 @@ class TripletSurrogate:
         self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair; {method})"
         return Vfine, lin_fine
 
+    def summary(self):
+        """What the surrogate was fitted on and its error model (JSON-friendly dict),
+        for ``capbridge info``."""
+        self._check_fitted()
+        cells = np.bincount(self.cell_code_.ravel(), minlength=4)
+        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine),
+                "gaps": self.gaps_.tolist(), "theta": self.theta_.tolist(),
+                "v": self.v_.tolist(), "coalescence_volume": self.coalescence_source_,
+                "cells": {"converged": int(cells[0]), "above_tolerance": int(cells[1]),
+                          "not_converged": int(cells[2]), "no_equilibrium": int(cells[3])},
+                "symmetrisation_max_change": self.asymmetry_,
+                "separated_energy": bool(self.has_separated_energy_),
+                "holdout_error": self.interpolation_error_}
+
     def spline_at(self, d12, d13, d23, theta, v):
         """The refined interpolant itself (splines along each axis, no fine grid) at
         points given by their volume ratio v: (n, 5) values of
