@@ -502,8 +502,13 @@ class BridgeModel:
         # grain angle classes and the pair angle of each combination
         self.theta_classes, self.grain_class = np.unique(self.theta, return_inverse=True)
         tc = self.theta_classes
-        # (angle on the smaller grain, angle on the larger) of every pair of classes
+        # (angle on the smaller grain, angle on the larger) of every pair of classes that
+        # the radii allow (class a can be the smaller, or equal, grain of a pair with b)
         t_small, t_large = np.meshgrid(tc, tc, indexing="ij")
+        cls = np.arange(tc.size)
+        r_lo = np.array([self.radii[self.grain_class == c].min() for c in cls])
+        r_hi = np.array([self.radii[self.grain_class == c].max() for c in cls])
+        possible = r_lo[:, None] <= r_hi[None, :]
         if isinstance(table, SceneTable):
             self.table = table
         else:
@@ -511,8 +516,10 @@ class BridgeModel:
             ratios, continuous = self.pair_ratios()
             self.table = SceneTable(table, tc, ratios, variables=variables,
                                     ratio_step=ratio_step, continuous=continuous,
-                                    theta_pairs=np.column_stack([t_small.ravel(), t_large.ravel()]))
-        self.pair_slice = self.table.slice_index(t_small.ravel(), t_large.ravel()).reshape(tc.size, tc.size)
+                                    theta_pairs=np.column_stack([t_small[possible],
+                                                                 t_large[possible]]))
+        self.pair_slice = np.full((tc.size, tc.size), -1, np.intp)   # -1: cannot occur
+        self.pair_slice[possible] = self.table.slice_index(t_small[possible], t_large[possible])
         self.with_beta = with_beta and "beta1" in self.table.grids
         if self.table.s_axis.lo != 0.0:
             raise ValueError("the table's s axis must start at 0 (s = sqrt(1 - d/d_rupt))")
@@ -603,6 +610,8 @@ class BridgeModel:
         i_small = self.radii[i] <= self.radii[j]
         small, large = np.where(i_small, i, j), np.where(i_small, j, i)
         ti = self.pair_slice[self.grain_class[small], self.grain_class[large]]
+        if np.any(ti < 0):                        # cannot happen with the model's radii
+            raise RuntimeError("a bridge between angle classes the radii do not allow")
         c = self.table.bridge_constants(ti, ratio, vstar)
         keys = i.astype(np.int64) * self.n + j
         cidx = self.cand.index_of(keys)
