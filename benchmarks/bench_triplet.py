@@ -184,12 +184,15 @@ def vcoal_errors(table, coalescence_table=None, cache=VCOAL_CACHE):
     out = {}
     for name, method, ct in ways:
         s = TripletSurrogate(method=method).fit(table, coalescence_table=ct)
-        r = s.coalescence_volume(*g, t)
-        e = np.abs(r["volume_coalescence"] / V - 1)
-        law = np.abs((r["V0"] + t / 90 * r["dV"]) / V - 1)
+        inside = s.covers(*g, t)
+        if not inside.any():
+            continue
+        r = s.coalescence_volume(*(x[inside] for x in g), t[inside])
+        e = np.abs(r["volume_coalescence"] / V[inside] - 1)
+        law = np.abs((r["V0"] + t[inside] / 90 * r["dV"]) / V[inside] - 1)
         out[name] = (float(np.median(e)), float(np.max(e)), float(np.median(law)),
-                     float(np.max(law)), len(V))
-    return out
+                     float(np.max(law)), int(inside.sum()))
+    return out or {"(no point inside the table)": (np.nan,) * 4 + (0,)}
 
 
 def _rate(fn, n, repeat=3):
@@ -250,10 +253,11 @@ def _centres(g):
 
 def accuracy(table, coalescence_table=None):
     """Held-out errors per method and lookup mode; refinement error of the default grid."""
-    from capbridge.surrogate.triplet import DEFAULT_REFINE, TripletSurrogate, holdout_errors
+    from capbridge.surrogate.triplet import (DEFAULT_REFINE, METHODS, TripletSurrogate,
+                                             holdout_errors)
 
     rows = {}
-    for method in ("cubic", "linear"):
+    for method in METHODS:
         s = TripletSurrogate(method=method).fit(table, coalescence_table=coalescence_table)
         for by in ("volume", "v"):
             e = holdout_errors(s, by=by)
@@ -321,7 +325,7 @@ def sur_source(args):
 
 
 def bench(args):
-    from capbridge.surrogate.triplet import DEFAULT_REFINE, UNEQUAL_SCHEMES
+    from capbridge.surrogate.triplet import METHODS, UNEQUAL_SCHEMES
 
     t0 = time.perf_counter()
     rows, refine_err, sur = accuracy(args.table, args.coalescence_table)
@@ -360,8 +364,7 @@ def bench(args):
         "|---|---|---:|---:|---:|---:|"]
     vc = rows.pop("V_coal")
     for (method, by), (med, mx, n, tot, mxl) in rows.items():
-        name = {"cubic": f"splines, refine {DEFAULT_REFINE}, simplex lookup",
-                "linear": "multilinear on the raw grid"}[method]
+        name = f"{method}: {METHODS[method]}"
         mode = {"volume": "V* (V*_coal interpolated too)", "v": "v = V*/V*_coal (exact)"}[by]
         lines.append(f"| {name} | {mode} | {med:.2e} | {mx:.2e} | {mxl:.2e} | {3 * n} "
                      f"({n} / {tot}) |")

@@ -73,6 +73,7 @@ import json
 
 import numpy as np
 import xarray as xr
+from scipy.interpolate import make_interp_spline
 
 from capbridge.status import Status
 from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, _refine_axis
@@ -155,19 +156,40 @@ class _FineAxis:
         return i, u - i
 
 
+#: interpolation methods: spline degree along the gap axes and along theta, v
+#: (None: cubic where the axis has >= 4 nodes, else the highest degree the nodes allow)
+METHODS = {
+    "cubic": "splines along every axis (quadratic through 3 gap nodes), simplex lookup "
+             "on the fine grid",
+    "cubic_tv": "linear in the gaps, cubic splines in theta and v, simplex lookup on the "
+                "fine grid",
+    "linear": "multilinear on the raw table grid (32 corners per lookup)",
+}
+
+
+def _degree(method, axis):
+    """Spline degree of ``method`` along table axis ``axis`` (0-2 gaps, 3 theta, 4 v)."""
+    if method == "linear" or (method == "cubic_tv" and axis < 3):
+        return 1
+    return None
+
+
 def _refine(values, axes, fine_axes, method):
     """Values on the coarse axes (leading dims) -> values on the fine axes.
 
-    Splines along each axis in turn (cubic with >= 4 nodes, else the highest degree the
-    nodes allow), in the physical coordinate; ``method="linear"`` gives the raw grid
-    (fine axes then coincide with the coarse ones).
+    Splines along each axis in turn, of the degree :func:`_degree` gives, in the
+    physical coordinate; ``method="linear"`` gives the raw grid (fine axes then
+    coincide with the coarse ones).
     """
     out = values
     if method == "linear":
         return np.ascontiguousarray(out)
     for a, (c, f) in enumerate(zip(axes, fine_axes)):
         if len(c) > 1 and f.refine > 1:
-            out = _refine_axis(out, a, c, f.nodes)
+            if _degree(method, a) == 1:
+                out = make_interp_spline(c, out, k=1, axis=a)(f.nodes)
+            else:
+                out = _refine_axis(out, a, c, f.nodes)
     return np.ascontiguousarray(out)
 
 
@@ -371,11 +393,12 @@ class TripletSurrogate:
 
     Parameters
     ----------
-    method : {"cubic", "linear"}
-        ``"cubic"`` (default): splines along each table axis (cubic with >= 4 nodes,
-        quadratic with 3) evaluated once on a fine grid, multilinear lookup on it;
-        ``"linear"``: multilinear on the raw table grid (32 corners per lookup, slower).
-        The fine grid is read by the simplex kernel (:class:`_Grid`).  Held-out errors of both:
+    method : {"cubic", "cubic_tv", "linear"}
+        How the table is interpolated (:data:`METHODS`): ``"cubic"`` (default) splines
+        along every axis (quadratic through the 3 gap nodes), ``"cubic_tv"`` linear in
+        the gaps and cubic in theta and v, both evaluated once on a fine grid read by
+        the simplex kernel (:class:`_Grid`); ``"linear"`` multilinear on the raw grid
+        (32 corners per lookup, slower).  Held-out errors of each:
         ``benchmarks/RESULTS.md``, "Triplet surrogate".
     refine : int or (int, int, int)
         Fine-grid steps per table interval along the gaps, theta and v (default
@@ -392,7 +415,7 @@ class TripletSurrogate:
 
     def __init__(self, method="cubic", refine=DEFAULT_REFINE, out_of_range="raise",
                  clip_hint="out_of_range='clip'"):
-        check_choice("method", method, ("cubic", "linear"))
+        check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
         r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
         if len(r) != 3:
@@ -431,7 +454,7 @@ class TripletSurrogate:
         self.gaps_ = gaps
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.v_ = np.asarray(ds["v"].values, float)
-        rg, rt, rv = self.refine if self.method == "cubic" else (1, 1, 1)
+        rg, rt, rv = self.refine if self.method != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
                       _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
         coarse = [gaps, gaps, gaps, self.theta_, self.v_]
@@ -473,7 +496,7 @@ class TripletSurrogate:
         filled = np.stack([_fill_failed(vals[..., k], has, (4, 3)) for k in
                            range(vals.shape[-1])], -1)
         self._coarse = (coarse, filled)
-        self.kernel_ = "simplex" if self.method == "cubic" else "multilinear"
+        self.kernel_ = "simplex" if self.method != "linear" else "multilinear"
         self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
         self._coalescence(ds, coarse, coalescence_table)
         self.holdout_ = _holdout_arrays(ds)
@@ -638,9 +661,9 @@ class TripletSurrogate:
         out = np.empty((pts[0].size, len(GRID_VARIABLES)))
         for n in range(pts[0].size):
             y = vals
-            for c, x in zip(coarse, pts):
-                y = _refine_axis(y, 0, c, np.array([x.flat[n]]))[0] if self.method == \
-                    "cubic" else _linear_at(y, c, x.flat[n])
+            for a, (c, x) in enumerate(zip(coarse, pts)):
+                y = _linear_at(y, c, x.flat[n]) if _degree(self.method, a) == 1 \
+                    else _refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
 
