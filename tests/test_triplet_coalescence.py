@@ -108,6 +108,10 @@ def test_lowest_separated_energy_picks_the_lowest_candidate():
     assert c["12,23"][0] == pytest.approx(c["13,23"][0], abs=1e-9)    # mirror images
     assert r["configuration"] in ("12,23", "13,23")     # the narrow bottom gap is used
     assert r["energy"] == pytest.approx(r["state"]["energy"], abs=0)
+    ring = separated_state(*PAPER, 0.2, 0.0, "12,13,23")
+    assert ring["energy"] == c["12,13,23"][0]
+    assert abs(sum(ring["volumes"].values()) - 0.2) < 1e-12
+    assert ring["pressure_spread"] < 1e-9
 
 
 def test_bad_input_is_one_clear_error():
@@ -184,8 +188,9 @@ def test_shipped_cube_permutation_symmetry(table):
         assert np.array_equal(ring, ring.transpose(*p, 3))
     pair = table["V_coal_pair"].values
     assert np.array_equal(pair, pair.transpose(1, 0, 2, 3))
-    # the canonical configuration (a): sorted nodes are the two smallest gaps' bridges
-    assert table["canonical"].attrs["long_name"]
+    # not symmetric under d13 <-> d23: that moves the shared grain
+    assert not np.allclose(pair, pair.transpose(0, 2, 1, 3))
+    assert "canonical order" in table["V_coal_pair"].attrs["long_name"]
     # equilateral triplets: the caps criterion at the same bridge volume in both
     # configurations, so the ring holds 3/2 of the pair's total
     n = table.sizes["d12"]
