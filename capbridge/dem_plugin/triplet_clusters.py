@@ -90,7 +90,8 @@ EVENTS = {
     "approximate": "merges of unequal radii (surrogate approximation, status approximate)",
     "mixed_angle": "coalesced triplets of different contact angles (doublet forces kept)",
     "merge_refused": "coalesced triplets the table cannot answer or where the separated "
-                     "state is lower (doublet forces kept)",
+                     "state is lower (doublet forces kept; once per triplet until it "
+                     "merges or its caps part)",
     "dissolved": "clusters whose bridge ruptured by the doublet rule or left with an "
                  "erased grain",
 }
@@ -181,6 +182,7 @@ class LiquidClusters:
         self._clear()
         self.funicular = {"clusters": 0, "grains": 0, "volume": 0.0, "largest": 0}
         self._funicular_keys = set()
+        self._refused_keys = set()
         self.last = None
 
     def _clear(self):
@@ -381,12 +383,16 @@ class LiquidClusters:
             gone = np.isin(self.grains, fg).any(axis=1)
             self._remove(gone)
         if not cand:
+            self._refused_keys = set()
             return
         grains = np.array([g for g, _, _ in cand], np.intp)
         vol = np.array([v for _, _, v in cand])
         res = self.lookup(model, pos, grains, vol)
         ok = np.isin(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
-        self.events["merge_refused"] += int((~ok).sum())
+        # refused triplets are counted once, not at every check while they stay refused
+        refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
+        self.events["merge_refused"] += len(refused - self._refused_keys)
+        self._refused_keys = refused
         for k in np.flatnonzero(ok):
             g, pairs, v = cand[k]
             mem = np.full((3, 2), -1, np.intp)
@@ -510,7 +516,8 @@ class LiquidClusters:
                 "volume": self.volume.copy(), "born": self.born.copy(),
                 "approx": self.approx.copy(), "events": dict(self.events),
                 "funicular": dict(self.funicular),
-                "funicular_keys": [list(k) for k in sorted(self._funicular_keys)]}
+                "funicular_keys": [list(k) for k in sorted(self._funicular_keys)],
+                "refused_keys": [list(k) for k in sorted(self._refused_keys)]}
 
     def set_state(self, st):
         """Continue from :meth:`get_state` (the table is loaded again only when needed)."""
@@ -522,3 +529,4 @@ class LiquidClusters:
         self.events.update({k: int(v) for k, v in st["events"].items()})
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
+        self._refused_keys = {tuple(k) for k in st.get("refused_keys", [])}
