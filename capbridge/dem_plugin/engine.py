@@ -65,8 +65,12 @@ that liquid (``removed_volume``).
 Coalescence: every ``coalescence_every`` steps, if some grain holds two bridges, the
 geometric criterion (:mod:`capbridge.dem_plugin.coalescence_detect`) is applied; merged
 bridges are reported in :meth:`CapbridgeEngine.state` and in a log line whenever their
-number changes.  Their forces stay the doublet forces of each bridge (no triplet table
-yet).
+number changes.  With ``triplet_forces`` (default: on when the triplet table exists) a
+coalesced triplet becomes one liquid cluster whose three grains get the triplet table's
+pair forces instead of its bridges' doublet forces, until it splits back into bridges
+at equal pressure (:mod:`capbridge.dem_plugin.triplet_clusters` has the rule; clusters
+of four grains or more keep their doublet forces and are reported).  The triplet table
+is read at the first coalesced triplet only: a scene without one does no triplet work.
 """
 from __future__ import annotations
 
@@ -144,7 +148,14 @@ ENGINE_PARAMETERS = {
                              "it has changed by more than this fraction of its magnitude "
                              "(added to the permanent forces meanwhile): fewer calls into "
                              "YADE, forces off by up to that fraction"),
-    "coalescence": (True, "detect coalesced bridges (report only)"),
+    "coalescence": (True, "detect coalesced bridges (reported; with triplet_forces their "
+                          "triplets get the triplet table's forces)"),
+    "triplet_forces": (None, "coalesced triplets get the triplet table's pair forces "
+                             "instead of their bridges' doublet forces (True / False; "
+                             "default True when the triplet table exists; False: report "
+                             "only)"),
+    "triplet_table": (None, "triplet table (path); default the shipped "
+                            "data/triplet_table.nc, read at the first coalesced triplet"),
     "coalescence_every": (100, "steps between coalescence checks"),
     "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
                     "data/doublet_table.nc"),
@@ -312,7 +323,7 @@ class CapbridgeEngine:
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
-                 label="capbridge"):
+                 label="capbridge", triplet_forces=None, triplet_table=None):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
         per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
@@ -358,6 +369,7 @@ class CapbridgeEngine:
             raise ValueError("force_tolerance must be >= 0")
         self.coalescence = bool(coalescence)
         self.coalescence_every = max(1, int(coalescence_every))
+        self._init_triplets(triplet_forces, triplet_table)
         self.table = table if table is not None else default_table_path()
         self.ids_requested = None if ids is None else [int(i) for i in ids]
         self.skin = skin
@@ -379,12 +391,14 @@ class CapbridgeEngine:
         self._applied = np.empty((0, 3))      # our share of each grain's permanent force
         self._erased = 0
         self._parts = {}                      # extra state: name -> (get, set)
+        self.register_state("clusters", self._clusters_get, self._clusters_set)
         self._params = {k: _jsonable(v) for k, v in locals().items()
                         if k in ENGINE_PARAMETERS and k not in ("table", "theta")}
         # the shipped table by name, so that a saved scene loads on another machine
         self._params["table"] = ("default" if table is None else
                                  str(table) if isinstance(table, (str, Path)) else None)
         self._params["theta"] = _theta_to_json(theta)
+        self._params["triplet_table"] = None if triplet_table is None else str(triplet_table)
         old = _REGISTRY.get(self.label)
         if old is not None and old is not self and old._in_scene():
             raise CapbridgeInputError(
@@ -449,6 +463,7 @@ class CapbridgeEngine:
         any state of this engine saved in the current scene."""
         self._clear_perm()
         self.model = None
+        self.clusters = None
         self._live = None
         try:
             yade, _ = _yade()
@@ -563,7 +578,9 @@ class CapbridgeEngine:
         rows = np.where(ids < where.size, where[np.minimum(ids, where.size - 1)], -1)
         gone = rows < 0
         if gone.any():
-            self.model.drop_grains(gone)
+            new_index = self.model.drop_grains(gone)
+            if self.clusters is not None:
+                self.clusters.remap(new_index)
             lost = ids[gone]
             self.ids = ids[~gone]
             self._erased += int(gone.sum())
@@ -613,13 +630,23 @@ class CapbridgeEngine:
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
         self.events["ruptured"] += geom["ruptured"]
-        forces, changed = self.model.grain_forces(geom, self.force_tolerance, self.holds_forces)
-        self._apply(forces, changed, O)
-        self._last_geom = geom
+        rep = None
         if self.coalescence and (self._coal_summary["checks"] == 0
                                  or it - self._coal_last >= self.coalescence_every):
-            self.check_coalescence(pos, geom)
+            rep = self.check_coalescence(pos, geom)
             self._coal_last = it
+        tri = None
+        if self.triplet_forces and ((rep is not None and rep.n_triplets) or
+                                    (self.clusters is not None and self.clusters.n)):
+            tri = self._triplet_step(pos, geom, rep, it)
+            geom = tri["geom"]
+        forces, changed = self.model.grain_forces(geom, self.force_tolerance, self.holds_forces)
+        if tri is not None and tri["grains"].size:
+            forces += tri["forces"]
+            if changed is not None:
+                changed = np.union1d(changed, tri["grains"])
+        self._apply(forces, changed, O)
+        self._last_geom = geom
         self.timings["steps"] += 1
         self.timings["seconds"] += time.perf_counter() - t0
         self.timings["cpu_seconds"] += time.thread_time() - c0
@@ -720,6 +747,7 @@ class CapbridgeEngine:
         # same grains as the live model: its table (slices) serves again
         self._setup(ids=ids.tolist(), table=self.model.table if same else None)
         self.model.set_state(st["bridges"])
+        self.clusters = None
         for name, (_, set_) in self._parts.items():
             if name in st:
                 set_(st[name])
@@ -796,7 +824,10 @@ class CapbridgeEngine:
                       f"coalesced bridge pairs (triplets, {s['closed_triangles']} closed "
                       f"triangles) in {rep.n_clusters} liquid clusters holding "
                       f"{rep.coalesced_volume:.4g} m^3 in {rep.n_bridges_in_clusters} "
-                      "bridges; their forces stay doublet forces (no triplet table yet)")
+                      "bridges; " + ("triplets get the triplet table's forces, larger "
+                                     "clusters keep doublet forces" if self.triplet_forces
+                                     else "their forces stay doublet forces "
+                                          "(triplet_forces off)"))
         self.timings["coalescence_seconds"] += time.perf_counter() - t0
         return rep
 
@@ -806,6 +837,58 @@ class CapbridgeEngine:
         if rep is None or rep.n_triplets == 0:
             return np.empty((0, 3), np.intp)
         return self.ids[rep.triplets]
+
+    # ---------------------------------------------------------------- coalesced triplets
+    def _init_triplets(self, triplet_forces, triplet_table):
+        """Triplet forces on when asked, or by default when the table exists (only its
+        existence is checked here: it is read at the first coalesced triplet)."""
+        from capbridge.surrogate.triplet import default_table
+
+        path = Path(triplet_table) if triplet_table is not None else default_table()
+        if triplet_forces is None:
+            triplet_forces = self.coalescence and path.exists()
+        elif triplet_forces and not path.exists():
+            raise CapbridgeInputError(f"triplet_forces=True but the triplet table {path} "
+                                      "does not exist: give triplet_table=... or "
+                                      "triplet_forces=False")
+        if triplet_forces and not self.coalescence:
+            raise CapbridgeInputError("triplet_forces=True needs coalescence=True (the "
+                                      "detector finds the triplets)")
+        self.triplet_forces = bool(triplet_forces)
+        self.triplet_table = path
+        self.clusters = None              # made at the first coalesced triplet
+
+    def _triplet_step(self, pos, geom, rep, it):
+        """Liquid clusters of coalesced triplets (:class:`LiquidClusters`): merge, the
+        table's forces, split; ruptures of a split are counted as ruptures."""
+        if self.clusters is None:
+            from capbridge.dem_plugin.triplet_clusters import LiquidClusters
+
+            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table)
+        loads = self.clusters.loads
+        out = self.clusters.step(self.model, pos, geom, rep, it)
+        self.events["ruptured"] += out["ruptured"]
+        if self.clusters.loads > loads:
+            self._say("info", f"capbridge {self.label!r} iter {it}: triplet table "
+                      f"{self.triplet_table.name} read in "
+                      f"{self.clusters.timings['load_seconds']:.2f} s (first coalesced triplet)")
+        return out
+
+    def triplet_report(self):
+        """Coalesced-triplet clusters: on/off, events, clusters, funicular fallback."""
+        if self.clusters is None:
+            return {"enabled": self.triplet_forces, "table_loaded": False, "clusters": 0}
+        return {"enabled": self.triplet_forces, **self.clusters.report()}
+
+    def _clusters_get(self):
+        return {} if self.clusters is None else self.clusters.get_state()
+
+    def _clusters_set(self, st):
+        if st:
+            from capbridge.dem_plugin.triplet_clusters import LiquidClusters
+
+            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table)
+            self.clusters.set_state(st)
 
     # ---------------------------------------------------------------------- reporting
     def _iter(self):
@@ -850,6 +933,7 @@ class CapbridgeEngine:
                        thetas=m.table.thetas.tolist(), ratio_nodes=m.table.ratio_nodes.tolist(),
                        table_mbytes=m.table.nbytes / 1e6,
                        candidate_pairs=int(m.cand.i.size), verlet_rebuilds=m.cand.rebuilds,
+                       triplets=self.triplet_report(),
                        total_force=float(g["force"].sum()) if g is not None else 0.0,
                        finite=bool(np.all(np.isfinite(g["force"]))) if g is not None else True)
         return out
