@@ -17,6 +17,8 @@ Writes ``benchmarks/gravity_axis_check.json`` (refuses to replace it without
   points, least-squares fits F = F0 + a Bo + b Bo^2 (and the fit's largest residual),
   and |b Bo^2| / |a Bo| at Bo = 0.13 (1 mm grains, water) and 2.14 (4 mm, the paper):
   whether a first-order response in Bo is enough.
+* ``rupture_response``: d*_rupt(Bo) / d*_rupt(0) - 1 at the volumes and angles of the
+  points, Bo in {0.13, 0.5, 2.14}.
 """
 from __future__ import annotations
 
@@ -29,7 +31,8 @@ import time
 
 import numpy as np
 
-from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+from capbridge.generator.young_laplace_gravity import (rupture_distance_gravity,
+                                                       solve_doublet_gravity)
 
 OUT = pathlib.Path(__file__).with_name("gravity_axis_check.json")
 #: (d*, V*, theta [deg], ratio): a mid-size bridge at 30 deg, a convex-ish one at 60 deg,
@@ -71,8 +74,7 @@ def evolver(d, V, th, ratio, bond, gravity_axis, max_refine):
 def compare_evolver(max_refine):
     rows = []
     cases = [(p, bo, -1.0) for p in POINTS for bo in [0.0] + BONDS]
-    cases.append((POINTS[2], 2.14, 1.0))
-    cases.append((POINTS[2], 0.0, 1.0))    # reference for the flipped case (same as -1)
+    cases.append((POINTS[2], 2.14, 1.0))    # unequal grains, the small one above
     ref = {}
     for (d, V, th, ratio), bo, ga in cases:
         ex = exact(d, V, th, ratio, bo, ga)
@@ -149,6 +151,23 @@ def bond_response():
     return out
 
 
+def rupture_response():
+    """Rupture distance with gravity along the axis, relative to Bo = 0, at the volumes
+    and angles of POINTS (both directions of gravity for unequal grains)."""
+    out = []
+    for _, V, th, ratio in POINTS:
+        for ga in ((-1.0, 1.0) if ratio != 1.0 else (-1.0,)):
+            bonds = np.array([0.0, 0.13, 0.5, 2.14])
+            r = rupture_distance_gravity(V, th, bonds, ratio, gravity_axis=ga)
+            row = dict(volume=V, theta=th, ratio=ratio, gravity_axis=ga,
+                       bonds=bonds.tolist(), d_rupt=r["gap"].tolist(),
+                       status=r["status"].tolist(),
+                       rel_change=(r["gap"] / r["gap"][0] - 1).tolist())
+            out.append(row)
+            print(json.dumps(row), flush=True)
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--max-refine", type=int, default=3)
@@ -167,7 +186,8 @@ def main(argv=None):
                              "towards grain 1; gravity_axis -1: grain 1 below; pressure "
                              "at the height of the centre of grain 1; energy E* with "
                              "gravitational energy from that height",
-              "bond_response": bond_response()}
+              "bond_response": bond_response(),
+              "rupture_response": rupture_response()}
     if not args.no_evolver:
         rows, summary = compare_evolver(args.max_refine)
         result.update(max_refine=args.max_refine, evolver=rows, evolver_summary=summary)

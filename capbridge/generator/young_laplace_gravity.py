@@ -44,10 +44,25 @@ exact zero-gravity bridge (:func:`~capbridge.generator.young_laplace.solve_doubl
 with continuation in Bo (steps <= ``bond_step``, linear predictor, step halved on
 failure).  Every accepted step must keep the stability indicator
 -det d(angle, on-grain-2, volume)/d(P_m, b1, L) positive: it is the zero-gravity
-solver's determinant times cos(b2) > 0 on its stable branch (a change of rows, checked
-in the tests), and it vanishes where the branch ends.  A point whose zero-gravity bridge
-has ruptured, or whose continuation fails, is NOT_CONVERGED: gravity moves the rupture
-distance (either way for unequal grains), so the zero-gravity verdict is not reused.
+solver's determinant times cos(b2) > 0 on its stable branch (a change of rows: the
+rupture distances found with it at Bo = 0 are the zero-gravity solver's, tested), and it
+vanishes where the branch ends (a fold, or for equal grains and angles at Bo = 0 the
+symmetry-breaking point).
+
+Stability and rupture
+---------------------
+Where natural continuation in Bo stalls, pseudo-arclength continuation in
+(P_m, b1, L, Bo) takes over (:func:`_walk`): steps that at most halve the indicator (a
+long step next to a sharp end, as for almost symmetric pairs, lands on a neighbouring
+branch whose indicator is positive too: two unstable modes), the tangent oriented
+towards larger Bo, and where the indicator changes sign a safeguarded secant search on
+the chord of the last step.  If the branch ends below the target Bo the bridge has
+ruptured: status RUPTURED, force 0, ``rupture_bond`` the Bo of the end.
+:func:`rupture_distance_gravity` walks the gap the same way at fixed Bo from half the
+zero-gravity rupture distance.  A point whose zero-gravity bridge has ruptured is
+RUPTURED at Bo = 0 and NOT_CONVERGED with gravity (gravity moves the rupture distance,
+either way for unequal grains: use :func:`rupture_distance_gravity`); a point whose
+continuation fails is NOT_CONVERGED.
 
 Forces and energy
 -----------------
@@ -82,7 +97,7 @@ from scipy.integrate import solve_ivp
 
 from capbridge.dimensionless import cap_area, cap_volume, centre_distance
 from capbridge.generator.young_laplace import (RATIO_MAX, THETA_MAX_DEG, bridge_profile,
-                                               solve_doublet)
+                                               rupture_distance, solve_doublet)
 from capbridge.status import Status
 from capbridge.validation import CapbridgeInputError, check_range
 
@@ -90,7 +105,8 @@ from capbridge.validation import CapbridgeInputError, check_range
 #: the lower grain and the continuation from the zero-gravity bridge is untested)
 BOND_MAX = 5.0
 
-__all__ = ["GravitySettings", "BOND_MAX", "solve_doublet_gravity", "gravity_bridge_state"]
+__all__ = ["GravitySettings", "BOND_MAX", "solve_doublet_gravity", "rupture_distance_gravity",
+           "gravity_bridge_state"]
 
 # order of the quantities integrated along the meridian
 _X, _Y, _PSI, _VOL, _MOM, _AREA = range(6)
@@ -140,21 +156,19 @@ def _start(beta1, theta1):
     return np.cos(beta1), np.sin(beta1), beta1 + theta1 - 0.5 * np.pi
 
 
-def _integrate(p_mid, beta1, L, pt, settings, b=None):
-    """Integrate k meridians sharing L (arrays p_mid, beta1 and b, of shape (k,); b
-    defaults to the point's).
+def _integrate(p_mid, beta1, L, pt, settings):
+    """Integrate k meridians sharing L (arrays p_mid, beta1 of shape (k,)).
 
     Returns (end state (6, k), min y along each meridian, ok).  ``ok`` is False when the
     integration fails or a meridian reaches the axis (y <= 1e-9: no bridge).
     """
     p_mid, beta1 = np.atleast_1d(p_mid).astype(float), np.atleast_1d(beta1).astype(float)
     k = p_mid.size
-    b = np.full(k, pt["b"]) if b is None else np.asarray(b, float)
     x0, y0, psi0 = _start(beta1, pt["theta1"])
     u0 = np.concatenate([x0, y0, psi0, np.zeros(3 * k)])
     if not (L > 0 and np.all(y0 > 0) and np.all(np.isfinite(u0))):
         return np.full((_NQ, k), np.nan), np.full(k, np.nan), False
-    f = _rhs(L, p_mid, b, pt["x_mid"])
+    f = _rhs(L, p_mid, pt["b"], pt["x_mid"])
 
     def axis(_t, u):              # a meridian reaching the axis: no bridge
         return np.min(u[_Y * k:(_Y + 1) * k]) - 1e-9
@@ -217,21 +231,16 @@ def _end_values(end, beta1, pt):
                 volume=vol / pt["volume"] - 1.0, beta2=beta2, vol=vol)
 
 
-def _residuals(z, pt, settings, jac=True, bond_column=False):
-    """Residuals r (3,), Jacobian J (3, 3) (columns P_m, b1, L; with ``bond_column`` a
-    fourth column d/db, b = -Bo gravity_axis) and the end state."""
+def _residuals(z, pt, settings, jac=True):
+    """Residuals r (3,), Jacobian J (3, 3) (columns P_m, b1, L) and the end state."""
     pm, b1, L = z
-    b = pt["b"]
     if jac:
-        eps = settings.fd_step * (1.0 + np.abs(np.array([pm, b1, b])))
-        pms = np.array([pm, pm + eps[0], pm, pm])
-        b1s = np.array([b1, b1, b1 + eps[1], b1])
-        bs = np.array([b, b, b, b + eps[2]])
-        if not bond_column:
-            pms, b1s, bs = pms[:3], b1s[:3], bs[:3]
+        eps = settings.fd_step * (1.0 + np.abs(z[:2]))
+        pms = np.array([pm, pm + eps[0], pm])
+        b1s = np.array([b1, b1, b1 + eps[1]])
     else:
-        pms, b1s, bs = np.array([pm]), np.array([b1]), np.array([b])
-    end, ymin, ok = _integrate(pms, b1s, L, pt, settings, bs)
+        pms, b1s = np.array([pm]), np.array([b1])
+    end, ymin, ok = _integrate(pms, b1s, L, pt, settings)
     if not ok:
         return None, None, None
     v = _end_values(end, b1s, pt)
@@ -242,14 +251,11 @@ def _residuals(z, pt, settings, jac=True, bond_column=False):
         return None, None, None
     if not jac:
         return r, None, info
-    J = np.empty((3, 4 if bond_column else 3))
-    for col, j in ((0, 1), (1, 2), (3, 3)):
-        if j >= len(pms):
-            continue
-        diff = np.array([v["angle"][j] - v["angle"][0], v["on2"][j] - v["on2"][0],
-                         v["volume"][j] - v["volume"][0]])
+    J = np.empty((3, 3))
+    for col in range(2):
+        diff = np.array([v[k][col + 1] - v[k][0] for k in ("angle", "on2", "volume")])
         diff[0] = _wrap(diff[0])
-        J[:, col] = diff / eps[min(col, 2)]
+        J[:, col] = diff / eps[col]
     J[:, 2] = _d_dL(end[:, 0], pm, pt)
     return r, J, info
 
@@ -373,31 +379,215 @@ def _zero_gravity_start(pt, zg):
 
 @dataclasses.dataclass
 class _Path:
-    """Outcome of the continuation of one point from Bo = 0 to its target."""
+    """Outcome of a continuation of one point."""
 
     status: Status = Status.NOT_CONVERGED
     z: np.ndarray = None
     J: np.ndarray = None
     info: dict = None
+    pt: dict = None
     iterations: int = 0
     steps: int = 0
-    rupture_bond: float = np.nan     #: Bo of the fold where the branch ends (RUPTURED)
+    end: float = np.nan       #: parameter (|Bo| or d*) where the stable branch ends
+
+    def accept(self, z, J, info, pt, status=Status.CONVERGED):
+        self.status, self.z, self.J, self.info, self.pt = status, z, J, info, pt
+        return self
+
+
+class _Family:
+    """Equilibria of one doublet as one parameter varies: ``"bond"`` (|b|, the direction
+    of gravity fixed) or ``"gap"`` (d*).  Pseudo-arclength continuation in the scaled
+    unknowns w = (P_m / s0, b1, L / s2, parameter), scales fixed at the start."""
+
+    def __init__(self, pt, param, settings, z):
+        self.pt, self.param, self.settings = pt, param, settings
+        self.sign = 1.0 if pt["b"] >= 0 else -1.0
+        self.scale = np.array([1.0 + abs(z[0]), 1.0, abs(z[2])])
+
+    def point(self, value):
+        """The point dict at parameter ``value``."""
+        if self.param == "bond":
+            return dict(self.pt, b=self.sign * value)
+        pt = self.pt
+        return _point_dict(value, pt["volume"], pt["theta1"], pt["theta2"], pt["ratio"],
+                           pt["bond"], -pt["b"] / pt["bond"] if pt["bond"] else -1.0)
+
+    def w_of(self, z, value):
+        return np.append(z / self.scale, value)
+
+    def evaluate(self, w):
+        """Residuals, Jacobian (3 x 4, in w) and the profile at w, or Nones."""
+        z, value = w[:3] * self.scale, w[3]
+        if value < 0.0:                   # Bo >= 0; d* < 0: overlapping grains
+            return None, None, None
+        pt = self.point(value)
+        r, J, info = _residuals(z, pt, self.settings)
+        if r is None:
+            return None, None, None
+        # the parameter column by a forward difference (a separate integration)
+        eps = self.settings.fd_step * (1.0 + abs(value))
+        r2, _, _ = _residuals(z, self.point(value + eps), self.settings, jac=False)
+        if r2 is None:
+            return None, None, None
+        dp = (r2 - r) / eps
+        dp[0] = _wrap(r2[0] - r[0]) / eps
+        Jw = np.column_stack([J * self.scale[None, :], dp])
+        return r, Jw, dict(info=info, J=J, pt=pt, z=z)
+
+    @staticmethod
+    def tangent(Jw, prev=None):
+        """Unit null vector of Jw, oriented along ``prev`` (else towards a larger
+        parameter)."""
+        t = np.linalg.svd(Jw)[2][-1]
+        ref = prev if prev is not None else np.array([0.0, 0.0, 0.0, 1.0])
+        return t if t @ ref >= 0 else -t
+
+    def correct(self, w_pred, u, w_ref, c, max_iter=12):
+        """Family point with u . (w - w_ref) = c (Newton from ``w_pred``)."""
+
+        def system(ww):
+            r, Jw, extra = self.evaluate(ww)
+            if r is None:
+                return None, None, None
+            return np.append(r, u @ (ww - w_ref) - c), np.vstack([Jw, u]), (Jw, extra)
+
+        w, ok, it, _, got = _damped_newton(system, w_pred,
+                                           lambda ww: np.array([0.5, 0.15, 0.5, 0.5]),
+                                           self.settings, max_iter)
+        return w, ok, it, got
+
+
+def _walk(fam, z, value, target, path, max_steps=100):
+    """Pseudo-arclength continuation from (z, value) towards larger parameter values,
+    until ``target`` (path CONVERGED at the target, on the stable branch) or the end of
+    the stable branch, where the indicator vanishes (path RUPTURED, ``path.end`` the
+    parameter there, located by bisection along the chord of the step that crossed it).
+    """
+    w = fam.w_of(z, value)
+    r, Jw, extra = fam.evaluate(w)
+    if r is None:
+        return path
+    t = fam.tangent(Jw)
+    ind_w = _indicator(extra["J"])
+    ds, ds_max = 0.05, 0.2
+    for _ in range(max_steps):
+        wp = w + ds * t
+        wn, ok, it, got = fam.correct(wp, t, wp, 0.0)
+        path.iterations += it
+        path.steps += 1
+        if not ok:
+            ds *= 0.5
+            if ds < 1e-5:
+                return path
+            continue
+        Jw_n, extra = got
+        ind = _indicator(extra["J"])
+        t_new = fam.tangent(Jw_n, t)
+        if t_new @ t < 0.9 or np.linalg.norm(wn - w) > 2.0 * ds:
+            # the corrector left the branch (e.g. across a sharp fold onto its return,
+            # where the indicator is positive again: two unstable modes)
+            ds *= 0.5
+            if ds < 1e-5:
+                return path
+            continue
+        if ind > 0 and wn[3] >= target:
+            # past the target on the stable branch: solve at the target itself
+            f = (target - w[3]) / (wn[3] - w[3])
+            pt = fam.point(target)
+            zt, okt, it, Jt, info_t = _newton(((1 - f) * w[:3] + f * wn[:3]) * fam.scale, pt,
+                                              fam.settings, max_iter=12)
+            path.iterations += it
+            if okt and _indicator(Jt) > 0:
+                path.accept(zt, Jt, info_t, pt)
+            return path
+        if 0 < ind < 0.5 * ind_w and ds > 1e-4:
+            # approach the end (indicator -> 0) in steps that at most halve the
+            # indicator: near a sharp end (an almost symmetric pair, where the stable
+            # branch turns close to the symmetry-breaking point) a long step lands on
+            # a neighbouring branch whose indicator is positive too
+            ds *= 0.5
+            continue
+        if ind <= 0:
+            if ds > 2e-3:
+                # the end is within this step: walk up to it in shorter steps, so that
+                # the final bracket is short enough for its chord to follow the branch
+                # (a long chord can cut another branch: near a symmetry-breaking point
+                # the asymmetric branches cross it)
+                ds = ds_max = 0.25 * ds
+                continue
+            return _branch_end(fam, w, wn, target, path)
+        if wn[3] <= w[3]:
+            # on the stable branch the parameter grows up to the end (where the
+            # indicator vanishes first): a step back landed on another branch
+            ds *= 0.5
+            if ds < 1e-5:
+                return path
+            continue
+        # oriented towards a larger parameter: it grows all along the stable branch
+        t, w, ind_w = fam.tangent(Jw_n), wn, ind
+        ds = min(1.5 * ds, ds_max)
+    return path
+
+
+def _branch_end(fam, w_lo, w_hi, target, path, max_iter=40):
+    """The indicator changes sign between the family points w_lo (> 0) and w_hi (<= 0):
+    its zero along their chord by the Illinois (safeguarded secant) method.  The stable
+    end of the final bracket is the end of the branch (a fold of the parameter, or for
+    equal grains at Bo = 0 the symmetry-breaking point, as in the zero-gravity solver).
+    """
+    chord = w_hi - w_lo
+    length = np.linalg.norm(chord)
+    u = chord / length
+
+    def ind_at(c, w_pred):
+        w, ok, it, got = fam.correct(w_pred, u, w_lo, c)
+        path.iterations += it
+        return (w, got[1], _indicator(got[1]["J"])) if ok else (None, None, np.nan)
+
+    w_a, ex_a, fa = ind_at(0.0, w_lo)
+    w_b, _, fb = ind_at(length, w_hi)
+    if not (fa > 0 and fb <= 0):
+        return path
+    a, b, side = 0.0, length, 0
+    for _ in range(max_iter):
+        if b - a < 1e-8 * (1.0 + length):
+            break
+        c = (a * fb - b * fa) / (fb - fa)
+        if not a < c < b:
+            c = 0.5 * (a + b)
+        w_c, ex_c, fc = ind_at(c, w_lo + c * u)
+        if not np.isfinite(fc):
+            fc = -1e-3 * fa             # a failed point counts as the far side
+        if fc > 0:
+            a, fa, w_a, ex_a = c, fc, w_c, ex_c
+            fb = 0.5 * fb if side == 1 else fb
+            side = 1
+        else:
+            b, fb = c, fc
+            fa = 0.5 * fa if side == -1 else fa
+            side = -1
+    if w_a[3] >= target:             # the target lies on the stable branch after all
+        return path
+    path.end = float(w_a[3])
+    return path.accept(ex_a["z"], ex_a["J"], ex_a["info"], ex_a["pt"], Status.RUPTURED)
 
 
 def _continue_in_bond(z0, pt, settings):
     """From the zero-gravity solution z0 to the target Bo.
 
     Natural continuation in b (steps <= ``bond_step``, secant predictor); where it stalls
-    (near a fold, where the Jacobian becomes singular) pseudo-arclength continuation in
-    (P_m, b1, L, b) takes over and either reaches the target or passes the fold of the
-    branch (the indicator changes sign while b turns back): the bridge has ruptured at
-    the Bo of the fold, below the target.
+    (near the end of the branch, where the Jacobian becomes singular) pseudo-arclength
+    continuation (:func:`_walk`) takes over and either reaches the target or finds the
+    end of the stable branch below it: the bridge has ruptured (``path.end`` is the Bo
+    of the end).
     """
     path = _Path()
     target = abs(pt["b"])
     sign = 1.0 if pt["b"] >= 0 else -1.0
     # polish at Bo = 0 (the ODE and the roulette agree to ~1e-11: one or two steps)
-    z, ok, it, J, info = _newton(z0, dict(pt, b=0.0), settings)
+    p0 = dict(pt, b=0.0)
+    z, ok, it, J, info = _newton(z0, p0, settings)
     path.iterations += it
     if not ok or _indicator(J) <= 0:
         return path
@@ -419,89 +609,9 @@ def _continue_in_bond(z0, pt, settings):
             step = min(1.5 * step, settings.bond_step)
             continue
         step *= 0.5
-        if step < 0.2 * settings.bond_step:      # stalled twice: near a fold
-            return _arclength(hist, pt, settings, path)
-    path.status, path.z, path.J, path.info = Status.CONVERGED, z, J, info
-    return path
-
-
-def _arclength(hist, pt, settings, path, max_steps=80):
-    """Pseudo-arclength continuation in w = (P_m / s0, b1, L / s2, |b|) from the last
-    accepted states ``hist`` towards the target |b| (see :func:`_continue_in_bond`)."""
-    target = abs(pt["b"])
-    sign = 1.0 if pt["b"] >= 0 else -1.0
-    z = hist[-1][1]
-    scale = np.array([1.0 + abs(z[0]), 1.0, abs(z[2]), 1.0])
-
-    def point(w):
-        return dict(pt, b=sign * w[3])
-
-    def tangent(J4, prev=None):
-        # null vector of d(residuals)/dw (3 x 4) in scaled unknowns
-        Jw = J4 * scale[None, :] * np.array([1, 1, 1, sign])[None, :]
-        t = np.linalg.svd(Jw)[2][-1]
-        if prev is not None:
-            return t if t @ prev >= 0 else -t
-        return t if t[3] >= 0 else -t            # start towards larger Bo
-
-    w = np.append(z / scale[:3], hist[-1][0])
-    r, J4, info = _residuals(z, point(w), settings, bond_column=True)
-    if r is None:
-        return path
-    t = tangent(J4)
-    ds = 0.05
-    for _ in range(max_steps):
-        wp = w + ds * t
-
-        def system(ww, wp=wp, t=t):
-            zz = ww[:3] * scale[:3]
-            rr, JJ, ii = _residuals(zz, point(ww), settings, bond_column=True)
-            if rr is None:
-                return None, None, None
-            Jw = JJ * scale[None, :] * np.array([1, 1, 1, sign])[None, :]
-            return (np.append(rr, t @ (ww - wp)), np.vstack([Jw, t]), (ii, JJ))
-
-        wn, ok, it, _, extra = _damped_newton(
-            system, wp, lambda ww: np.array([0.5, 0.15, 0.5, 0.5]), settings, 12)
-        path.iterations += it
-        path.steps += 1
-        if not ok:
-            ds *= 0.5
-            if ds < 1e-4:
-                return path
-            continue
-        info, J4 = extra
-        ind = _indicator(J4)
-        if wn[3] >= target and ind > 0:
-            # past the target on the stable branch: solve at the target itself
-            f = (target - w[3]) / (wn[3] - w[3])
-            z0 = ((1 - f) * w[:3] + f * wn[:3]) * scale[:3]
-            zt, okt, it, Jt, info_t = _newton(z0, pt, settings, max_iter=12)
-            path.iterations += it
-            if okt and _indicator(Jt) > 0:
-                path.status, path.z, path.J, path.info = Status.CONVERGED, zt, Jt, info_t
-            return path
-        t_new = tangent(J4, t)
-        if ind <= 0:
-            if t_new[3] >= 0:
-                return path                       # not a fold: no verdict
-            # a fold between w and wn: the branch turns back in Bo there.  Its Bo from
-            # the cubic Hermite interpolant of b(sigma) on the step (slopes t[3], t_new[3])
-            tau = np.linspace(0.0, 1.0, 401)
-            dsig = np.linalg.norm(wn - w)
-            h = (w[3] * (2 * tau**3 - 3 * tau**2 + 1) + wn[3] * (-2 * tau**3 + 3 * tau**2)
-                 + dsig * t[3] * (tau**3 - 2 * tau**2 + tau) + dsig * t_new[3] * (tau**3 - tau**2))
-            b_fold = float(np.max(h))
-            if b_fold >= target:                  # the target lies before the fold
-                ds *= 0.25
-                if ds < 1e-4:
-                    return path
-                continue
-            path.status, path.rupture_bond = Status.RUPTURED, b_fold
-            return path
-        t, w = t_new, wn
-        ds = min(1.5 * ds, 0.2)
-    return path
+        if step < 0.2 * settings.bond_step:      # stalled twice: near the end
+            return _walk(_Family(pt, "bond", settings, z), z, done, target, path)
+    return path.accept(z, J, info, pt)
 
 
 # --------------------------------------------------------------------------------------
@@ -575,6 +685,81 @@ def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
     gap = check_range("gap d*", gap, 0.0, np.inf,
                       hint="d* is the gap between the sphere surfaces; "
                            "overlapping grains are not supported")
+    (d, v, t1, t2, R, bo, ga), shape = _validated(gap, volume, theta, theta2, ratio, bond,
+                                                  gravity_axis)
+    out = _result_arrays(d.size)
+    out["gap"], out["volume"], out["bond"] = d.copy(), v.copy(), bo.copy()
+    zg = solve_doublet(d, v, np.degrees(t1), R, np.degrees(t2))   # vectorised starts
+    for i in range(d.size):
+        if zg["status"][i] != Status.CONVERGED:
+            # ruptured without gravity: exact at Bo = 0; with gravity the rupture
+            # distance moves (either way for unequal grains), so no verdict there
+            if zg["status"][i] == Status.RUPTURED and bo[i] == 0.0:
+                out["status"][i] = Status.RUPTURED
+                out["force"][i] = out["force1"][i] = out["force2"][i] = 0.0
+            continue
+        pt = _point_dict(d[i], v[i], t1[i], t2[i], R[i], bo[i], ga[i])
+        path = _solve_point(pt, {k: zg[k][i] for k in ("pressure", "beta1", "beta2")},
+                            settings)
+        _store(out, i, path)
+        if path.status == Status.RUPTURED:
+            for k in _KEYS[:-1]:
+                if k not in ("gap", "volume", "bond"):
+                    out[k][i] = np.nan
+            out["force"][i] = out["force1"][i] = out["force2"][i] = 0.0
+            out["rupture_bond"][i] = path.end
+    return {k: val.reshape(shape) for k, val in out.items()}
+
+
+def rupture_distance_gravity(volume, theta, bond, ratio=1.0, theta2=None,
+                             gravity_axis=-1.0, settings=None):
+    """Rupture distance d*_rupt(V*, Bo) of the vertical doublet: the end of the stable
+    branch at fixed volume and Bo.
+
+    From a stable bridge at half the zero-gravity rupture distance (solved as in
+    :func:`solve_doublet_gravity`), pseudo-arclength continuation in the gap until the
+    stability indicator vanishes (a fold of the gap, or for equal grains and angles at
+    Bo = 0 the symmetry-breaking point), located by a safeguarded secant search.
+
+    Parameters are those of :func:`solve_doublet_gravity` without ``gap``.  Returns a
+    dict with ``gap`` (d*_rupt) and the bridge there (the keys of
+    :func:`solve_doublet_gravity`); status CONVERGED where the end was found, else
+    NOT_CONVERGED (gap NaN).
+
+    >>> r = rupture_distance_gravity(0.05, 30.0, 2.14)
+    >>> bool(0.4 < r["gap"] < 0.5)
+    True
+    """
+    settings = settings or GravitySettings()
+    (v, t1, t2, R, bo, ga), shape = _validated(None, volume, theta, theta2, ratio, bond,
+                                               gravity_axis)
+    out = _result_arrays(v.size)
+    out["volume"], out["bond"] = v.copy(), bo.copy()
+    d_r0 = rupture_distance(v, np.degrees(t1), R, np.degrees(t2))["gap"]
+    for i in range(v.size):
+        for frac in (0.5, 0.1):               # a stable start, well inside the branch
+            d0 = frac * d_r0[i]
+            if not np.isfinite(d0):
+                break
+            zg = solve_doublet(d0, v[i], np.degrees(t1[i]), R[i], np.degrees(t2[i]))
+            if zg["status"] != Status.CONVERGED:
+                continue
+            pt = _point_dict(d0, v[i], t1[i], t2[i], R[i], bo[i], ga[i])
+            path = _solve_point(pt, zg, settings)
+            if path.status != Status.CONVERGED:
+                continue
+            end = _walk(_Family(pt, "gap", settings, path.z), path.z, d0, np.inf,
+                        _Path(iterations=path.iterations, steps=path.steps))
+            if end.status == Status.RUPTURED:
+                end.status = Status.CONVERGED     # the end of the branch was found
+                _store(out, i, end)
+                out["gap"][i] = end.end
+            break
+    return {k: val.reshape(shape) for k, val in out.items()}
+
+
+def _validated(gap, volume, theta, theta2, ratio, bond, gravity_axis):
+    """Checked inputs (angles in radians), flattened after broadcasting, and the shape."""
     volume = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
     theta = check_range("theta", theta, 0.0, THETA_MAX_DEG, high_open=True, units=" deg",
                         hint="contact angles are supported in [0, 90) degrees")
@@ -586,43 +771,41 @@ def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
     bond = check_range("Bond number Bo", bond, 0.0, BOND_MAX,
                        hint="Bo = drho g R1^2 / gamma")
     g_axis = _check_gravity_axis(gravity_axis)
-    arrays = np.broadcast_arrays(gap, volume, theta, theta2, ratio, bond, g_axis)
-    shape = arrays[0].shape
-    d, v, t1, t2, R, bo, ga = (np.ravel(a).astype(float) for a in arrays)
-    n = d.size
+    arrays = [volume, np.radians(theta), np.radians(theta2), ratio, bond, g_axis]
+    if gap is not None:
+        arrays.insert(0, gap)
+    b = np.broadcast_arrays(*arrays)
+    return [np.ravel(a).astype(float) for a in b], b[0].shape
+
+
+def _result_arrays(n):
     out = {k: np.full(n, np.nan) for k in _KEYS}
     out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
     out["iterations"] = np.zeros(n, np.int16)
     out["steps"] = np.zeros(n, np.int16)
-    out["gap"], out["volume"], out["bond"] = d.copy(), v.copy(), bo.copy()
-    zg = solve_doublet(d, v, t1, R, t2)           # the zero-gravity starts, vectorised
-    for i in range(n):
-        if zg["status"][i] != Status.CONVERGED:
-            # ruptured without gravity: exact at Bo = 0; with gravity the rupture
-            # distance moves (either way for unequal grains), so no verdict there
-            if zg["status"][i] == Status.RUPTURED and bo[i] == 0.0:
-                out["status"][i] = Status.RUPTURED
-                out["force"][i] = out["force1"][i] = out["force2"][i] = 0.0
-            continue
-        pt = _point_dict(d[i], v[i], np.radians(t1[i]), np.radians(t2[i]), R[i], bo[i],
-                         ga[i])
-        z0 = _zero_gravity_start(pt, {k: zg[k][i] for k in ("pressure", "beta1", "beta2")})
-        if not np.all(np.isfinite(z0)):
-            continue
-        path = _continue_in_bond(z0, pt, settings)
-        out["iterations"][i], out["steps"][i] = path.iterations, path.steps
-        out["status"][i] = path.status
-        if path.status == Status.RUPTURED:
-            for k in ("force", "force1", "force2"):
-                out[k][i] = 0.0
-            out["rupture_bond"][i] = path.rupture_bond
-        if path.status != Status.CONVERGED:
-            continue
-        res = _forces(path.z, path.info, pt)
-        for k, val in res.items():
-            out[k][i] = val
-        out["indicator"][i] = _indicator(path.J)
-    return {k: val.reshape(shape) for k, val in out.items()}
+    return out
+
+
+def _solve_point(pt, zg, settings):
+    """Continuation from the zero-gravity bridge ``zg`` (its pressure, beta1, beta2) to
+    the point's Bo.  Returns a :class:`_Path`."""
+    z0 = _zero_gravity_start(pt, {k: float(np.ravel(zg[k])[0])
+                                  for k in ("pressure", "beta1", "beta2")})
+    if not np.all(np.isfinite(z0)):
+        return _Path()
+    return _continue_in_bond(z0, pt, settings)
+
+
+def _store(out, i, path):
+    """Results of a path into row i of ``out``."""
+    out["iterations"][i], out["steps"][i] = path.iterations, path.steps
+    out["status"][i] = path.status
+    if path.z is None:
+        return
+    for k, val in _forces(path.z, path.info, path.pt).items():
+        out[k][i] = val
+    out["gap"][i] = path.pt["gap"]
+    out["indicator"][i] = _indicator(path.J)
 
 
 def gravity_bridge_state(gap, volume, theta, bond, z, ratio=1.0, theta2=None,
