@@ -492,6 +492,7 @@ class LiquidClusters:
                int(self.approx.sum()), "funicular": dict(self.funicular),
                "table_loaded": self.loaded, "table_loads": self.loads,
                "timings": dict(self.timings)}
+        out["born"] = self.born.tolist()            # DEM step of each cluster's merge
         if self.last is not None and self.n:
             out["statuses"] = [Status(int(s)).name.lower() for s in self.last["status"]]
         return out

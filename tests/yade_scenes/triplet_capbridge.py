@@ -19,7 +19,8 @@ and 1, the coalescence check at every step.  ``--gaps g01_start,g01_end,g`` (gap
 grain 1 moves on the arc around grain 2 (gap g kept) from gap g01_start to g01_end
 from grain 0 in the first ``steps[0]`` steps (closing the angle at grain 2 until the
 caps meet), stays ``steps[1]`` steps, moves straight away from grain 2 until their gap
-is ``--pull-gap`` in ``steps[2]`` steps, stays ``steps[3]`` steps.  Every row: the
+is ``--pull-gap`` in ``steps[2]`` steps, stays ``steps[3]`` steps.  ``--restart M``:
+after the hold, ``O.saveTmp``, M steps, ``O.loadTmp``, the same M steps again (no pull).  Every row: the
 centres the engine saw, the forces YADE applied after the step, the engine's bridges
 (grains, volumes, gaps), liquid ledger and triplet report.  Prints one JSON line.
 """
@@ -55,6 +56,9 @@ cli.add_argument("--pull-gap", type=float, default=0.3)
 cli.add_argument("--steps", type=yade_runtime.float_list, default=[150, 20, 100, 10])
 cli.add_argument("--table", default=None, help="triplet table (default the shipped one)")
 cli.add_argument("--triplet-forces", choices=("on", "off", "default"), default="default")
+cli.add_argument("--restart", type=int, default=0,
+                 help="after the hold: O.saveTmp, M steps, O.loadTmp, the same M steps "
+                      "again (and no pull)")
 cfg = cli.parse_args(sys.argv[1:])
 
 MAT = dict(young=1e8, poisson=0.3, density=2600, frictionAngle=0.5)
@@ -134,6 +138,8 @@ def closing():
     far = p2 + u * (2 + cfg.pull_gap) * r
     path += [start + (far - start) * (k + 1) / n_pull for k in range(n_pull)]
     path += [path[-1]] * n_end
+    if cfg.restart:
+        path = path[:n_close + n_hold]
     rows = []
     b1 = O.bodies[ids[1]]
     for target in path:
@@ -148,9 +154,24 @@ def closing():
                      "bi": m.bi.tolist(), "bj": m.bj.tolist(), "vol": m.vol.tolist(),
                      "gap": g["gap"].tolist(), "bridge_force": g["force"].tolist(),
                      "budget": m.budget(), "triplets": cap.triplet_report()})
-    yade_runtime.emit_result({"r": r, "gamma": cap.gamma, "theta": cfg.theta,
-                              "volume": cfg.volume, "rows": rows, "state": cap.state(),
-                              "messages": cap.messages})
+    out = {"r": r, "gamma": cap.gamma, "theta": cfg.theta, "volume": cfg.volume,
+           "rows": rows}
+    if cfg.restart:
+        b1.state.vel = Vector3(0, 0, 0)
+        O.saveTmp("triplet")
+        runs = []
+        for k in range(2):
+            if k:
+                O.loadTmp("triplet")
+            runs.append([])
+            for _ in range(cfg.restart):
+                O.step()
+                runs[-1].append({"iter": int(O.iter),
+                                 "forces": [list(O.forces.f(i)) for i in ids],
+                                 "triplets": cap.triplet_report()})
+        out["restart"] = runs
+    out.update(state=cap.state(), messages=cap.messages)
+    yade_runtime.emit_result(out)
 
 
 if cfg.closing:
