@@ -432,17 +432,18 @@ class _Candidates:
         from scipy.spatial import cKDTree
 
         r = self.radii
-        tree = cKDTree(pos)
-        pairs = tree.query_pairs(2.0 * float(r.max()) + self.skin, output_type="ndarray")
-        if pairs.size:
+        cell = getattr(self, "cell", None)     # periodic: nearest images through the faces
+        cut = 2.0 * float(r.max()) + self.skin
+        if cell is not None:
+            i, j, dv = cell.near_pairs(pos, cut)
+        else:
+            pairs = cKDTree(pos).query_pairs(cut, output_type="ndarray").reshape(-1, 2)
             i, j = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
             swap = i > j
             i, j = np.where(swap, j, i), np.where(swap, i, j)
-            d = np.linalg.norm(pos[j] - pos[i], axis=1)
-            keep = d < r[i] + r[j] + self.skin
-            i, j = i[keep], j[keep]
-        else:
-            i = j = np.empty(0, np.intp)
+            dv = pos[j] - pos[i]
+        keep = np.linalg.norm(dv, axis=1) < r[i] + r[j] + self.skin
+        i, j = i[keep], j[keep]
         self.i, self.j = i, j
         self.reach2 = (r[i] + r[j] + self.reach) ** 2
         self.keys = i.astype(np.int64) * n + j
@@ -763,6 +764,9 @@ class BridgeModel:
         formation test and force direction follows."""
         d = pos[j]
         d -= pos[i]
+        cell = getattr(self, "cell", None)     # capbridge.dem_plugin.periodic.PeriodicCell
+        if cell is not None:
+            cell.min_image(d)
         return d
 
     def _cand_gaps(self, pos):
@@ -977,7 +981,7 @@ class BridgeModel:
         """Where the liquid is now: bridges, films, total [m^3] and, with the pore
         volume [m^3], the degree of saturation S_r = liquid / pores (total and in
         bridges)."""
-        b = float(self.vol.sum())
+        b = float(self.vol.sum()) + float(getattr(self, "wall_volume", 0.0))
         f = float(self.films.sum())
         out = {"bridges": b, "films": f, "total": b + f, "n_bridges": self.n_bridges,
                "wet_grains": int(np.count_nonzero(np.bincount(
@@ -1000,9 +1004,11 @@ class BridgeModel:
         L["active_count"] = self.n_bridges
         L["active_volume"] = active
         L["film_volume"] = float(self.films.sum())
+        # liquid in wall bridges (capbridge.dem_plugin.wall_bridges), conserving rule
+        L["wall_volume"] = float(getattr(self, "wall_volume", 0.0))
         if self.liquid.kind == "conserved":
             expected = float(self.liquid.total_liquid) - L["removed_volume"]
-            got = active + L["film_volume"]
+            got = active + L["film_volume"] + L["wall_volume"]
         else:
             expected = L["initial_volume"] + L["formed_volume"] - L["ruptured_volume"]
             got = active

@@ -85,7 +85,7 @@ from pathlib import Path
 
 import numpy as np
 
-from capbridge.dem_plugin import state_io
+from capbridge.dem_plugin import scene_geometry, state_io
 from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem_plugin.coalescence_detect import find_coalescence
 from capbridge.validation import CapbridgeInputError
@@ -163,6 +163,8 @@ ENGINE_PARAMETERS = {
     "skin": (None, "Verlet skin of the near-pair list [m] (default 0.1 x smallest radius)"),
     "ratio_step": (0.01, "ratio node spacing for continuous size distributions"),
     "label": ("capbridge", "name of the engine (PyRunner label, registry key)"),
+    "walls": (False, "bridges to walls: True wets every Wall, Box and Facet body (angle from "
+                     "its material through theta), a list of body ids those only, False none"),
 }
 
 
@@ -323,7 +325,7 @@ class CapbridgeEngine:
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
-                 label="capbridge", triplet_forces=None, triplet_table=None):
+                 label="capbridge", triplet_forces=None, triplet_table=None, walls=False):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
         per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
@@ -375,6 +377,9 @@ class CapbridgeEngine:
         self.skin = skin
         self.ratio_step = float(ratio_step)
         self.label = str(label)
+        # walls and periodic cells: capbridge.dem_plugin.scene_geometry
+        self.walls_requested = walls if isinstance(walls, bool) else [int(i) for i in walls]
+        self.walls, self._cell = None, None
         self.model = None
         self.coalescence_report = None
         self._coal_summary = {"searched": False, "triplets": 0, "clusters": 0,
@@ -507,8 +512,6 @@ class CapbridgeEngine:
                 raise CapbridgeInputError("ids must be ids of existing spheres")
         if not bodies:
             raise ValueError("no spheres in the scene")
-        if O.periodic:
-            raise CapbridgeInputError("periodic cells are not supported by CapbridgeEngine yet")
         self.ids = np.array([b.id for b in bodies], np.intp)
         radii = np.array([b.shape.radius for b in bodies], float)
         theta = self._materials_theta(bodies)
@@ -538,6 +541,7 @@ class CapbridgeEngine:
                                  formation_gap=self.formation_gap,
                                  initial_wet_gap=self.initial_wet_gap, skin=self.skin,
                                  with_beta=self.coalescence, ratio_step=self.ratio_step)
+        scene_geometry.setup(self, O, theta)          # periodic cell, wall bridges
         self._map_rows()
         self.timings["setup_seconds"] += time.perf_counter() - t0
         tab = self.model.table
@@ -579,6 +583,7 @@ class CapbridgeEngine:
         gone = rows < 0
         if gone.any():
             new_index = self.model.drop_grains(gone)
+            scene_geometry.drop_spheres(self, gone)
             if self.clusters is not None:
                 self.clusters.remap(new_index)
             lost = ids[gone]
@@ -627,6 +632,8 @@ class CapbridgeEngine:
                 pairs = [(row[a], row[b]) for a, b in self.initial_pairs]
             except KeyError as exc:
                 raise ValueError(f"initial_pairs: body {exc} is not a wet sphere") from None
+        first = not self.model.initialised
+        scene_geometry.before_update(self, O, pos)     # periodic cell follows O.cell
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
         self.events["ruptured"] += geom["ruptured"]
@@ -645,6 +652,7 @@ class CapbridgeEngine:
             forces += tri["forces"]
             if changed is not None:
                 changed = np.union1d(changed, tri["grains"])
+        changed = scene_geometry.wall_forces(self, O, pos, forces, changed, first)
         self._apply(forces, changed, O)
         self._last_geom = geom
         self.timings["steps"] += 1
@@ -936,7 +944,25 @@ class CapbridgeEngine:
                        triplets=self.triplet_report(),
                        total_force=float(g["force"].sum()) if g is not None else 0.0,
                        finite=bool(np.all(np.isfinite(g["force"]))) if g is not None else True)
+            out["walls"] = self.walls.summary() if self.walls is not None else None
+            out["periodic"] = self._cell.h.tolist() if self._cell is not None else None
         return out
+
+    def write_vtk(self, path, overwrite=False):
+        """Write the current bridges (sphere-sphere and wall) to a VTK file (``.vtp`` or
+        ``.vtk``) and, beside it, the liquid clusters (``<stem>_clusters<suffix>``) when
+        there are any; see :mod:`capbridge.dem_plugin.engine_vtk`."""
+        from capbridge.dem_plugin.engine_vtk import write_vtk
+
+        return write_vtk(self, path, overwrite=overwrite)
+
+    def vtk_recorder(self, directory, every=100, prefix=None, overwrite=False):
+        """A ``PyRunner`` that writes the bridges every ``every`` steps into ``directory``
+        (a ParaView time series, :mod:`capbridge.dem_plugin.engine_vtk`); put it in
+        ``O.engines`` after the capillary PyRunner."""
+        from capbridge.dem_plugin.engine_vtk import vtk_recorder
+
+        return vtk_recorder(self, directory, every=every, prefix=prefix, overwrite=overwrite)
 
 
 # ------------------------------------------------------------------------------------
