@@ -652,7 +652,7 @@ class CapbridgeEngine:
             forces += tri["forces"]
             if changed is not None:
                 changed = np.union1d(changed, tri["grains"])
-        changed = scene_geometry.wall_forces(self, O, pos, forces, changed, first)
+        forces, changed = scene_geometry.wall_forces(self, O, pos, forces, changed, first)
         self._apply(forces, changed, O)
         self._last_geom = geom
         self.timings["steps"] += 1

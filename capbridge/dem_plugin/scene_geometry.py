@@ -43,8 +43,9 @@ def setup(eng, O, sphere_theta):
         theta_w = eng._materials_theta(bodies)
         eng.walls = WallBridges(m, sphere_theta, WallSet(bodies, theta_w))
         eng.register_state("walls", eng.walls.get_state, eng.walls.set_state)
-        eng._say("info", f"capbridge {eng.label!r}: {len(bodies)} wall partners, angle pairs "
-                 f"(sphere, wall) {eng.walls.table.pairs.tolist()} deg (exact slices)")
+        eng._say("info", f"capbridge {eng.label!r}: {len(bodies)} wall partners, wall angles "
+                 f"{np.unique(theta_w).tolist()} deg (exact sphere-wall slices solved when a "
+                 "pair of angles first forms a bridge)")
 
 
 def _check_cell(eng):
@@ -76,17 +77,17 @@ def before_update(eng, O, pos):
 
 
 def wall_forces(eng, O, pos, forces, changed, first):
-    """Add the wall bridges' forces on the spheres to ``forces`` (in place) and their
-    reaction on the wall bodies to YADE; returns the changed rows (or None)."""
+    """The sphere forces ``forces`` plus the wall bridges' forces on the spheres, and
+    the changed rows (or None); the reaction on the wall bodies goes to YADE."""
     w = eng.walls
     if w is None:
-        return changed
+        return forces, changed
     f, touched = w.update(pos, O, first=first)
-    forces += f
+    forces = forces + f          # (an empty model's sums may be integer zeros)
     w.apply_reaction(O, eng.holds_forces)
     if changed is not None:
         changed = np.union1d(changed, touched)
-    return changed
+    return forces, changed
 
 
 def drop_spheres(eng, gone):

@@ -209,40 +209,46 @@ class WallTable:
         accept the same V* range).
     n_s : s nodes of each slice (:func:`~capbridge.generator.sphere_wall.default_s_axis`).
 
-    Each slice is solved once per process (cached; 1-5 s each) and must converge at
-    every node, else the engine refuses to start (never a silent NaN force).
+    A slice is solved when a bridge of its pair first forms (once per process, cached;
+    4-15 s each on a shared 2-core machine) and must converge at every node, else the
+    engine stops with an error (never a silent NaN force).
     """
 
     def __init__(self, pairs, volumes, n_s=25):
-        from capbridge.generator.sphere_wall import sphere_wall_table
-
-        self.pairs = np.unique(np.asarray(pairs, float).reshape(-1, 2), axis=0)
         self.volumes = np.asarray(volumes, float)
         self.vstar_range = (float(self.volumes[0]), float(self.volumes[-1]))
-        force, rupt = [], []
-        for ts, tw in self.pairs:
-            key = (float(ts), float(tw), tuple(self.volumes.tolist()), int(n_s))
+        self.n_s = int(n_s)
+        self.pairs = np.empty((0, 2))
+        self.force, self.rupture = [], []        # per slice: (volume, s), (volume,)
+        self.fine_s = np.linspace(0.0, 1.0, N_FINE_S)
+        self.ensure(pairs)
+
+    def ensure(self, pairs):
+        """Solve the slices of the (theta_s, theta_w) ``pairs`` not held yet."""
+        from capbridge.generator.sphere_wall import sphere_wall_table
+
+        for ts, tw in np.unique(np.asarray(pairs, float).reshape(-1, 2), axis=0):
+            if np.any(np.all(np.abs(self.pairs - (ts, tw)) <= 1e-9, axis=1)):
+                continue
+            key = (float(ts), float(tw), tuple(self.volumes.tolist()), self.n_s)
             if key not in _TABLE_CACHE:
-                _TABLE_CACHE[key] = sphere_wall_table(ts, tw, self.volumes, n_s)
+                _TABLE_CACHE[key] = sphere_wall_table(ts, tw, self.volumes, self.n_s)
             ds = _TABLE_CACHE[key]
             bad = int((ds["status"].values != int(Status.CONVERGED)).sum()
                       + (ds["rupture_status"].values != int(Status.CONVERGED)).sum())
             if bad:
                 raise ValueError(f"sphere-wall table ({ts:g}, {tw:g}) deg has {bad} unconverged "
                                  "points: the engine cannot use it")
-            force.append(ds["force"].values)
-            rupt.append(ds["rupture_gap"].values)
+            self.force.append(ds["force"].values)
+            self.rupture.append(ds["rupture_gap"].values)
             self.s = ds["s"].values
-        self.force = np.array(force)          # (p, volume, s)
-        self.rupture = np.array(rupt)         # (p, volume)
-        self.fine_s = np.linspace(0.0, 1.0, N_FINE_S)
+            self.pairs = np.vstack([self.pairs, [ts, tw]])
 
     def slice_index(self, theta_s, theta_w):
-        """Slice of each (theta_s, theta_w) pair (must be one of :attr:`pairs`)."""
-        t = np.column_stack([np.atleast_1d(theta_s), np.atleast_1d(theta_w)])
+        """Slice of each (theta_s, theta_w) pair (solved now if not held yet)."""
+        t = np.column_stack([np.atleast_1d(theta_s), np.atleast_1d(theta_w)]).astype(float)
+        self.ensure(t)
         hit = np.all(np.abs(self.pairs[None] - t[:, None]) <= 1e-9, axis=2)
-        if not hit.any(axis=1).all():
-            raise ValueError("a contact-angle pair is not in this WallTable")
         return hit.argmax(axis=1)
 
     def profiles(self, slice_idx, vstar):
@@ -309,7 +315,9 @@ class WallBridges:
             raise CapbridgeInputError(
                 f"wall bridges need a sphere contact angle in [0, 90) deg and a wall angle in "
                 f"[0, 90] deg (got pairs {pairs.tolist()})")
-        self.table = WallTable(pairs, model.table.surrogate.volume_)
+        # slices are solved when a pair first forms a bridge (most sphere angles never
+        # meet most wall angles)
+        self.table = WallTable(np.empty((0, 2)), model.table.surrogate.volume_)
         self.theta_s = ts
         self._empty()
         self.ledger = {"formed_count": 0, "formed_volume": 0.0, "ruptured_count": 0,
@@ -583,7 +591,4 @@ def wall_bodies(O, wanted=True):
     return out
 
 
-def max_reach_star(table):
-    """Largest d*_rupt of a wall table (for bounds)."""
-    return float(np.nanmax(table.rupture)) if table.rupture.size else 0.0
 
