@@ -268,21 +268,28 @@ class LiquidClusters:
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
-        try:
-            res = sur.predict_vectors(C / r[:, None, None], volume / r**3, theta,
-                                      radii=R / r[:, None])
-        except CapbridgeInputError:
-            if k > 1:       # one cluster outside the table: ask them one by one
-                for c in range(k):
-                    one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1])
-                    for key in ("f", "status", "lower"):
-                        out[key][c] = one[key][0]
-            # k == 1: gaps or angle outside the table: OUT_OF_RANGE, no number
-        else:
-            fs = force_scale(r, self.gamma)
-            out["f"] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * fs[:, None]
-            out["status"] = res["status"]
-            out["lower"] = res["lower_energy_state"]
+        # clusters whose gaps (/ the pair's Derjaguin radius, as the surrogate looks
+        # unequal radii up; / r for equal ones) or angle are outside the table are
+        # OUT_OF_RANGE without a lookup
+        Rij = np.stack([2 * R[:, a] * R[:, b] / (R[:, a] + R[:, b]) for a, b in P], 1)
+        gs = g / Rij
+        ask = np.flatnonzero(sur.covers(gs[:, 0], gs[:, 1], gs[:, 2], theta))
+        if ask.size:
+            try:
+                res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
+                                          theta[ask], radii=R[ask] / r[ask, None])
+            except CapbridgeInputError:
+                if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
+                    for c in ask:
+                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1])
+                        for key in ("f", "status", "lower"):
+                            out[key][c] = one[key][0]
+            else:
+                fs = force_scale(r[ask], self.gamma)
+                out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
+                    fs[:, None]
+                out["status"][ask] = res["status"]
+                out["lower"][ask] = res["lower_energy_state"]
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
 
