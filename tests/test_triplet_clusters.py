@@ -277,3 +277,41 @@ def test_unequal_radii_are_approximate_and_counted(sur):
     assert ref["status"] == Status.APPROXIMATE
     np.testing.assert_allclose(out["forces"], ref["forces"] * force_scale(R, GAMMA),
                                rtol=1e-12, atol=1e-15)
+
+
+def _rotate(v, axis, angle):
+    """v turned about the unit vector ``axis`` by ``angle`` [rad] (Rodrigues)."""
+    k = axis / np.linalg.norm(axis)
+    return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
+
+
+@needs_table
+def test_merged_triplet_joining_a_funicular_cluster_is_released(sur, doublets):
+    """A merged triplet (grains 0, 1, 2) and a fourth grain bridged to grain 2, first
+    with its cap apart, then turned about grain 2 (same gap) until its cap meets the
+    cluster's: the cluster now touches four grains -> released to its bridges (volumes
+    unchanged), counted as funicular; the doublet forces are back."""
+    g, V = _geometry(sur)
+    pos3 = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    p2 = pos3[2]
+    away = p2 - 0.5 * (pos3[0] + pos3[1])                  # opposite to grains 0 and 1
+    start = p2 + away / np.linalg.norm(away) * (2 + g[1]) * R
+    pos = np.vstack([pos3, start])
+    m = BridgeModel([R] * 4, 0.0, default_table_path(), GAMMA, LiquidRule(bridge_volume=V / 2))
+    m.initialise(pos, pairs=[(0, 2), (1, 2), (2, 3)])
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    geom, rep = _check(m, pos)
+    assert rep.n_clusters == 1 and rep.clusters[0].size == 2
+    cl.step(m, pos, geom, rep)
+    assert cl.n == 1 and cl.events["merged"] == 1
+    vol = m.vol.copy()
+    # grain 3 where grain 0 would be after a quarter turn about the axis 2 -> 1
+    pos[3] = p2 + _rotate(pos3[0] - p2, pos3[1] - p2, np.pi / 2)
+    geom, rep = _check(m, pos)
+    assert rep.n_clusters == 1 and rep.clusters[0].size == 3
+    f0 = geom["force"].copy()
+    out = cl.step(m, pos, geom, rep)
+    assert cl.n == 0 and cl.events["funicular_fallback"] == 1
+    np.testing.assert_array_equal(m.vol, vol)
+    np.testing.assert_array_equal(out["geom"]["force"], f0)
+    np.testing.assert_array_equal(out["forces"], 0.0)

@@ -88,7 +88,8 @@ EVENTS = {
                             "bridges kept their merge-time volumes",
     "funicular_fallback": "clusters of >= 4 grains detected (doublet forces kept)",
     "approximate": "merges of unequal radii (surrogate approximation, status approximate)",
-    "mixed_angle": "coalesced triplets of different contact angles (doublet forces kept)",
+    "mixed_angle": "coalesced triplets of different contact angles (doublet forces kept; "
+                   "counted at every check)",
     "merge_refused": "coalesced triplets the table cannot answer or where the separated "
                      "state is lower (doublet forces kept; once per triplet until it "
                      "merges or its caps part)",
@@ -367,27 +368,34 @@ class LiquidClusters:
         bi, bj = model.bi, model.bj
         have = set(map(tuple, self.members.reshape(-1, 2)[
             self.members.reshape(-1, 2)[:, 0] >= 0].tolist()))
-        cand, funicular = [], []
+        cand, funicular, triples, fun_rows = [], [], [], []
         for c in report.clusters:
             g = np.unique(np.concatenate([bi[c], bj[c]]))
             if g.size >= 4:
                 funicular.append((g, float(model.vol[c].sum())))
-                continue
-            # every bridge among the three grains joins (a closed triangle)
-            inside = np.isin(bi, g) & np.isin(bj, g)
-            b = np.flatnonzero(inside)
-            pairs = [(int(bi[x]), int(bj[x])) for x in b]
-            if any(p in have for p in pairs):
-                continue                              # already merged
-            if np.ptp(model.theta[g]) > 0:
-                self.events["mixed_angle"] += 1
-                continue
-            cand.append((g, pairs, float(model.vol[b].sum())))
+                fun_rows.append(c)
+            else:
+                triples.append(g)
+        if triples:
+            # every bridge among the three grains joins (a closed triangle): the rows of
+            # the three pairs of each triple, in one search
+            T = np.array(triples, np.intp)
+            rows = self._rows(model, np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]],
+                                              1).reshape(-1, 2)).reshape(-1, 3)
+            mixed = np.ptp(model.theta[T], axis=1) > 0
+            self.events["mixed_angle"] += int(mixed.sum())
+            for g, rw, mx in zip(T, rows, mixed):
+                b = rw[rw >= 0]
+                pairs = [(int(bi[x]), int(bj[x])) for x in b]
+                if mx or any(p in have for p in pairs):
+                    continue                          # mixed angles, or already merged
+                cand.append((g, pairs, float(model.vol[b].sum())))
         self._note_funicular(funicular)
         if funicular and self.n:
-            # merged triplets swallowed by a funicular cluster: released (doublets)
-            fg = np.concatenate([g for g, _ in funicular])
-            gone = np.isin(self.grains, fg).any(axis=1)
+            # merged triplets whose bridges joined a funicular cluster: released to
+            # their bridges (volumes unchanged, doublet forces)
+            rows = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
+            gone = np.isin(rows, np.concatenate(fun_rows)).any(axis=1)
             self._remove(gone)
         if not cand:
             self._refused_keys = set()
