@@ -701,13 +701,14 @@ def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
         pt = _point_dict(d[i], v[i], t1[i], t2[i], R[i], bo[i], ga[i])
         path = _solve_point(pt, {k: zg[k][i] for k in ("pressure", "beta1", "beta2")},
                             settings)
-        _store(out, i, path)
         if path.status == Status.RUPTURED:
-            for k in _KEYS[:-1]:
-                if k not in ("gap", "volume", "bond"):
-                    out[k][i] = np.nan
+            # the end of the branch is a state at another Bo: only its Bo is reported
+            out["status"][i] = path.status
+            out["iterations"][i], out["steps"][i] = path.iterations, path.steps
             out["force"][i] = out["force1"][i] = out["force2"][i] = 0.0
             out["rupture_bond"][i] = path.end
+        else:
+            _store(out, i, path)
     return {k: val.reshape(shape) for k, val in out.items()}
 
 
