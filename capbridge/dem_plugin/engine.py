@@ -156,6 +156,10 @@ ENGINE_PARAMETERS = {
                              "only)"),
     "triplet_table": (None, "triplet table (path); default the shipped "
                             "data/triplet_table.nc, read at the first coalesced triplet"),
+    "triplet_split": ("exact", "how a split cluster shares its liquid: 'exact' (equal "
+                               "Laplace pressure, exact doublets, seconds per split) or "
+                               "'merge_volumes' (the bridges' volumes at the merge, no "
+                               "solve)"),
     "coalescence_every": (100, "steps between coalescence checks"),
     "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
                     "data/doublet_table.nc"),
@@ -325,7 +329,8 @@ class CapbridgeEngine:
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
-                 label="capbridge", triplet_forces=None, triplet_table=None, walls=False):
+                 label="capbridge", triplet_forces=None, triplet_table=None, walls=False,
+                 triplet_split="exact"):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
         per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
@@ -371,6 +376,9 @@ class CapbridgeEngine:
             raise ValueError("force_tolerance must be >= 0")
         self.coalescence = bool(coalescence)
         self.coalescence_every = max(1, int(coalescence_every))
+        from capbridge.validation import check_choice
+        check_choice("triplet_split", triplet_split, ("exact", "merge_volumes"))
+        self.triplet_split = triplet_split
         self._init_triplets(triplet_forces, triplet_table)
         self.table = table if table is not None else default_table_path()
         self.ids_requested = None if ids is None else [int(i) for i in ids]
@@ -872,7 +880,8 @@ class CapbridgeEngine:
         if self.clusters is None:
             from capbridge.dem_plugin.triplet_clusters import LiquidClusters
 
-            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table)
+            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table,
+                                           split_solver=self.triplet_split)
         loads = self.clusters.loads
         out = self.clusters.step(self.model, pos, geom, rep, it)
         self.events["ruptured"] += out["ruptured"]
@@ -895,7 +904,8 @@ class CapbridgeEngine:
         if st:
             from capbridge.dem_plugin.triplet_clusters import LiquidClusters
 
-            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table)
+            self.clusters = LiquidClusters(self.gamma, table=self.triplet_table,
+                                           split_solver=self.triplet_split)
             self.clusters.set_state(st)
 
     # ---------------------------------------------------------------------- reporting
