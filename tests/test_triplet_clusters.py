@@ -21,7 +21,8 @@ import pytest
 
 from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem_plugin.coalescence_detect import find_coalescence
-from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
+from capbridge.dem_plugin.triplet_clusters import (LiquidClusters, load_surrogate,
+                                                    triangle_centres)
 from capbridge.dimensionless import force_scale
 from capbridge.status import Status
 from capbridge.surrogate.triplet import TripletSurrogate, default_table
@@ -35,7 +36,8 @@ GAMMA = 0.073
 
 @pytest.fixture(scope="module")
 def sur():
-    return TripletSurrogate(out_of_range="clip").fit(TABLE)
+    """The surrogate as the engine fits it (with the dense V_coal table beside it)."""
+    return load_surrogate(TABLE)
 
 
 @pytest.fixture(scope="module")
@@ -226,7 +228,7 @@ def test_lazy_load_only_at_a_merge_candidate(doublets):
 @needs_table
 def test_lazy_load_reads_the_table_once(doublets):
     cl = LiquidClusters(GAMMA, table=TABLE)
-    sur = TripletSurrogate(out_of_range="clip").fit(TABLE)
+    sur = load_surrogate(TABLE)
     g, V = _geometry(sur)
     pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
     m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)

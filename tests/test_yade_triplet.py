@@ -31,7 +31,8 @@ import pytest
 from capbridge.dem_plugin import yade_runtime as yr
 from capbridge.dimensionless import force_scale
 from capbridge.status import HAS_RESULT
-from capbridge.surrogate.triplet import TripletSurrogate, default_table
+from capbridge.dem_plugin.triplet_clusters import load_surrogate
+from capbridge.surrogate.triplet import default_table
 
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_capbridge.py"
 TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
@@ -46,7 +47,8 @@ pytestmark = [pytest.mark.yade,
 
 @pytest.fixture(scope="module")
 def sur():
-    return TripletSurrogate(out_of_range="clip").fit(TABLE)
+    """The surrogate as the engine fits it (with the dense V_coal table beside it)."""
+    return load_surrogate(TABLE)
 
 
 def _path(sur):

@@ -76,7 +76,8 @@ from capbridge.dimensionless import force_scale
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
-__all__ = ["LiquidClusters", "EVENTS", "set_bridge_volumes", "triangle_centres"]
+__all__ = ["LiquidClusters", "EVENTS", "set_bridge_volumes", "triangle_centres",
+           "load_surrogate"]
 
 #: event counters of :class:`LiquidClusters` (name -> meaning)
 EVENTS = {
@@ -123,6 +124,26 @@ def triangle_centres(L01, L02, L12):
     c[..., 2, 0] = x
     c[..., 2, 1] = y
     return c
+
+
+def load_surrogate(table=None, coalescence_table=None):
+    """The triplet surrogate the engine uses: ``table`` (default the shipped
+    ``data/triplet_table.nc``) fitted with ``out_of_range="clip"`` (a volume ratio
+    outside the table is a status, not an exception) and with the dense coalescence
+    volumes ``coalescence_table`` (default ``triplet_coalescence.nc`` beside the table,
+    if it exists)."""
+    from pathlib import Path
+
+    from capbridge.surrogate.triplet import TripletSurrogate, default_table
+
+    path = Path(table) if table is not None else default_table()
+    if not path.exists():
+        raise CapbridgeInputError(f"triplet table {path} not found: give "
+                                  "triplet_table=... or triplet_forces=False")
+    coal = coalescence_table
+    if coal is None and (path.parent / "triplet_coalescence.nc").exists():
+        coal = path.parent / "triplet_coalescence.nc"
+    return TripletSurrogate(out_of_range="clip").fit(path, coalescence_table=coal)
 
 
 def set_bridge_volumes(model, rows, volumes):
@@ -206,20 +227,8 @@ class LiquidClusters:
     def surrogate(self):
         """The triplet surrogate, fitted from the table at the first call (lazy)."""
         if self._sur is None:
-            from pathlib import Path
-
-            from capbridge.surrogate.triplet import TripletSurrogate, default_table
-
             t0 = time.perf_counter()
-            path = Path(self.table) if self.table is not None else default_table()
-            if not path.exists():
-                raise CapbridgeInputError(f"triplet table {path} not found: give "
-                                          "triplet_table=... or triplet_forces=False")
-            coal = self.coalescence_table
-            if coal is None and (path.parent / "triplet_coalescence.nc").exists():
-                coal = path.parent / "triplet_coalescence.nc"
-            # clip: a volume ratio outside the table gives a status, not an exception
-            self._sur = TripletSurrogate(out_of_range="clip").fit(path, coalescence_table=coal)
+            self._sur = load_surrogate(self.table, self.coalescence_table)
             self.loads += 1
             self.timings["load_seconds"] += time.perf_counter() - t0
         return self._sur
