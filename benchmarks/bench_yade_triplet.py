@@ -126,6 +126,8 @@ def _section(a, res, command):
               f"{t.get('table_loaded')} ({t.get('timings', {}).get('load_seconds', 0):.2f} s); "
               f"split time {t.get('timings', {}).get('split_seconds', 0):.2f} s; liquid "
               f"budget error on/off: {on['budget_error']:.1e} / {off['budget_error']:.1e}.", ""]
+    if a.note:
+        lines += [a.note, ""]
     return "\n".join(lines)
 
 
@@ -139,6 +141,7 @@ def main(argv=None):
     ap.add_argument("--water-content", type=float, default=0.05)
     ap.add_argument("--table", default=str(ROOT / "data" / "triplet_table.nc"))
     ap.add_argument("--write", action="store_true")
+    ap.add_argument("--note", default="", help="a paragraph added to the section")
     a = ap.parse_args(argv)
     if not Path(a.table).exists():
         raise SystemExit(f"bench_yade_triplet: error: triplet table {a.table} not found "
