@@ -158,8 +158,12 @@ def main(argv=None):
     files = by.ensure_files()
     suction, factor, _ = by.choose_suction(r_mean=1e-3, r_min=1e-3, r_max=1e-3)
     res["law2"] = _run(["--run-law2", packing, files, a.steps, a.warmup, suction, factor])
+    args = list(argv or sys.argv[1:])
+    if "--note" in args:                      # the note is text, not part of the command
+        k = args.index("--note")
+        del args[k:k + 2]
     command = "python benchmarks/bench_yade_triplet.py " + " ".join(
-        x if not x.startswith("/") else Path(x).name for x in (argv or sys.argv[1:]))
+        x if not x.startswith("/") else Path(x).name for x in args)
     text = _section(a, res, command)
     print(text)
     print(json.dumps(res, default=str), file=sys.stderr)
