@@ -317,3 +317,22 @@ def test_merged_triplet_joining_a_funicular_cluster_is_released(sur, doublets):
     np.testing.assert_array_equal(m.vol, vol)
     np.testing.assert_array_equal(out["geom"]["force"], f0)
     np.testing.assert_array_equal(out["forces"], 0.0)
+
+
+def test_engine_options_of_triplet_forces():
+    """CapbridgeEngine: triplet_forces=True without its table is one clear error; by
+    default a missing table means report only; a bad triplet_split is refused."""
+    from capbridge.dem_plugin.engine import CapbridgeEngine
+
+    with pytest.raises(CapbridgeInputError, match="nonexistent.nc does not exist"):
+        CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True,
+                        triplet_table="/nonexistent.nc", label="h7_missing")
+    with pytest.raises(CapbridgeInputError, match="needs coalescence=True"):
+        CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True, coalescence=False,
+                        triplet_table=default_table_path(), label="h7_nocoal")
+    with pytest.raises(CapbridgeInputError, match="triplet_split"):
+        CapbridgeEngine(bridge_volume=1e-10, triplet_split="fast", label="h7_split")
+    eng = CapbridgeEngine(bridge_volume=1e-10, triplet_table="/nonexistent.nc",
+                          label="h7_default")
+    assert eng.triplet_forces is False and eng.triplet_report() == {
+        "enabled": False, "table_loaded": False, "clusters": 0}
