@@ -430,7 +430,9 @@ def main(argv=None):
     p.add_argument("step", nargs="?", default="bench", choices=("bench", "evolver", "vcoal"))
     p.add_argument("--table", default=os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
                                                      str(ROOT / "data" / "triplet_table.nc")))
-    p.add_argument("--coalescence-table", default=None)
+    coal = ROOT / "data" / "triplet_coalescence.nc"
+    p.add_argument("--coalescence-table", default=str(coal) if coal.exists() else None,
+                   help="default: data/triplet_coalescence.nc if it exists")
     p.add_argument("--n", type=int, default=1_000_000, help="points of the rate runs")
     p.add_argument("--write", action="store_true",
                    help="append the section to benchmarks/RESULTS.md")
