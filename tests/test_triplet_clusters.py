@@ -128,7 +128,8 @@ def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve)
     m, cl, pos, V, _, _ = _merged(sur, doublets, conserve=conserve)
     pos = pos.copy()
     u = (pos[1] - pos[2]) / np.linalg.norm(pos[1] - pos[2])
-    pos[1] += u * (sur.gaps_[-1] * 1.3 - sur.gaps_[0]) * R        # beyond the table
+    g12 = np.linalg.norm(pos[1] - pos[2]) / R - 2
+    pos[1] += u * (1.2 * sur.gaps_[-1] - g12) * R       # gap 1-2: 1.2 x the table's largest
     geom = m.update(pos)
     out = cl.step(m, pos, geom, None)
     assert cl.events["split_geometry"] == 1 and cl.n == 0
@@ -170,6 +171,9 @@ def test_split_when_the_separated_state_is_lower(sur, doublets):
     from capbridge.generator.netcdf_io import read_table
 
     ds = read_table(TABLE)
+    # an edited copy (no checksum), without a separated energy of its own
+    ds = ds.drop_vars("energy_separated", errors="ignore")
+    ds.attrs.pop("data_sha256", None)
     e_sep = ds["energy_extrapolated"] - 0.5
     e_sep.name = "energy_separated"
     lower = TripletSurrogate(out_of_range="clip").fit(ds, separated_energy=e_sep)
