@@ -6,7 +6,9 @@ ParaView time series (``out/<label>_bridges.pvd``), beside YADE's own ``VTKRecor
 files of the grains.  The files are written by :mod:`capbridge.dem_plugin.vtk_output`
 (one line cell per bridge, SI units):
 
-* ends: the two grain centres of a sphere-sphere bridge (in a periodic cell the second
+* ends: at the positions the engine's last step used (the forces' positions; YADE's
+  own ``VTKRecorder`` after ``NewtonIntegrator`` shows the grains one step later): the
+  two grain centres of a sphere-sphere bridge (in a periodic cell the second
   end is the nearest image of the second grain, so no line spans the cell), or the
   sphere's centre and the foot on the wall of a wall bridge;
 * cell data ``volume`` [m^3], ``force`` [N] (vector on the first end, attraction
@@ -42,10 +44,13 @@ def bridge_arrays(eng):
     if m is None:
         raise CapbridgeInputError("the capbridge engine has not run a step yet: nothing to write")
     g = eng._last_geom
-    pos = eng.positions()
+    # the centres the last step's forces were computed at (the grains have moved by one
+    # NewtonIntegrator step since): ends, gaps and forces belong together
+    pos = getattr(eng, "_step_pos", None)
     nb = m.n_bridges
-    if g is None or g["d"].shape[0] != nb:
-        g = m.update(pos, form=False)
+    if g is None or pos is None or g["d"].shape[0] != nb or pos.shape[0] != m.n:
+        raise CapbridgeInputError("the capbridge engine's bridges changed since its last "
+                                  "step: write the VTK file right after a step")
     d = m.pair_vectors(pos, m.bi, m.bj)              # nearest image in a periodic cell
     dist = np.linalg.norm(d, axis=1)
     ends = np.stack([pos[m.bi], pos[m.bi] + d], axis=1)
