@@ -589,8 +589,6 @@ class TripletSurrogate:
         keeps the triplet table's own values at its nodes.  The kinks then lie on the
         planes of equal gaps, which the fine grid's simplices never cross.  V0, dV: the
         coalescence table's linear law at the sorted gaps."""
-        from scipy.interpolate import RegularGridInterpolator
-
         from capbridge.generator.netcdf_io import read_table
 
         dc = table if isinstance(table, xr.Dataset) else read_table(table)
@@ -611,27 +609,26 @@ class TripletSurrogate:
         if not np.isfinite(V).all():
             raise CapbridgeInputError(f"{src}: V_coal_pair has missing values")
         method = "cubic" if min(g.size, t.size) >= 4 else "linear"
-        W = RegularGridInterpolator((g, g, g, t), V, method=method)
-        law = RegularGridInterpolator((g, g, g), np.stack(
-            [dc["V0_pair"].values, dc["dV_pair"].values], -1), method=method)
 
-        def sorted_gaps(axis):
-            G = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), -1)
-            return np.sort(G, axis=-1)
+        def W_at(values, gaps_axis, theta_axis=None):
+            # the sorted gaps of a node are node values of the same axis: the values
+            # on the tensor grid (splines along each axis, as RegularGridInterpolator's
+            # "cubic"), then read at the sorted indices
+            axes = [(g, gaps_axis)] * 3 + ([] if theta_axis is None else [(t, theta_axis)])
+            Wt = values
+            for a, (c, x) in enumerate(axes):
+                Wt = _refine_axis(Wt, a, c, x) if method == "cubic" else \
+                    make_interp_spline(c, Wt, k=1, axis=a)(x)
+            n = gaps_axis.size
+            I = np.sort(np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1), -1)
+            return Wt[I[..., 0], I[..., 1], I[..., 2]]
 
-        def W_at(gaps_axis, theta_axis):
-            Gs = sorted_gaps(gaps_axis)
-            P = np.concatenate([np.repeat(Gs[..., None, :], theta_axis.size, -2),
-                                np.broadcast_to(theta_axis[:, None], Gs.shape[:3] +
-                                                (theta_axis.size, 1))], -1)
-            return W(P.reshape(-1, 4)).reshape(P.shape[:-1])
-
-        resid = Vc_nodes - W_at(c4[0], c4[3])
+        resid = Vc_nodes - W_at(V, c4[0], c4[3])
         self.coalescence_residual_ = float(np.max(np.abs(resid) / Vc_nodes))
-        Vfine = W_at(self.axes_[0].nodes, self.axes_[3].nodes) + \
+        Vfine = W_at(V, self.axes_[0].nodes, self.axes_[3].nodes) + \
             _refine(resid, c4, self.axes_[:4], self.method)
-        Gs = sorted_gaps(self.axes_[0].nodes)
-        lin_fine = law(Gs.reshape(-1, 3)).reshape(Gs.shape[:3] + (2,))
+        lin_fine = W_at(np.stack([dc["V0_pair"].values, dc["dV_pair"].values], -1),
+                        self.axes_[0].nodes)
         self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair; {method})"
         return Vfine, lin_fine
 
