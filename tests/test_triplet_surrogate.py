@@ -130,6 +130,8 @@ def test_holdout_points_within_error(sur):
     """Held-out Evolver points (one level finer): each pair force within the surrogate's
     own error estimate (the cell's Evolver error plus the measured interpolation error),
     and the same errors under every relabelling of the grains."""
+    if sur.holdout_ is None:
+        pytest.skip("the table has no held-out points")
     e = holdout_errors(sur)
     assert e["n"] >= 1
     h = sur.holdout_
