@@ -14,7 +14,8 @@ numbers:
   (the engine at the table's smallest V* = 1e-3 gives the exact solver's 0.9602 of it,
   and the exact deviation shrinks like V*^(1/4) towards 0);
 * conserving rule: a wall bridge takes half the sphere's film and gives all of it back;
-  the ledger balances to round-off at every step;
+  the ledger balances to round-off at every step; after O.saveTmp/O.loadTmp the wall
+  forces and films are those of the uninterrupted run;
 * a periodic pull-apart across the (sheared) cell's boundary equals the same pull-apart
   inside the cell to 1e-12 of the force;
 * the VTK files read back (``vtk_output.read_vtk``): ends at the sphere centres and the
@@ -181,6 +182,24 @@ def test_wall_bridges_conserve_liquid():
     np.testing.assert_allclose(rows[0]["wall_volume"], v.sum(), rtol=1e-12)
     np.testing.assert_allclose(rows[-1]["films"], 2 * v, rtol=1e-12)
     assert max(r["budget_error"] for r in rows) < 1e-12
+
+
+@pytest.mark.yade
+@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
+def test_wall_bridges_survive_save_tmp_load_tmp():
+    """O.saveTmp, 60 steps in which the three wall bridges rupture, O.loadTmp, the same
+    60 steps: the forces on spheres and walls are the same (to 1e-9 of the largest),
+    and so are the films."""
+    res = _run("wall_capbridge.py", ["--reload", "--rule", "conserved"])
+    a = np.array([r["f"] for r in res["before"]])
+    b = np.array([r["f"] for r in res["after"]])
+    assert np.abs(a).max() > 0
+    np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.abs(a).max())
+    n = [r["n"] for r in res["before"]]
+    assert n[0] == 3 and n[-1] == 0                   # ruptures happen in the window
+    assert n == [r["n"] for r in res["after"]]
+    np.testing.assert_allclose([r["films"] for r in res["after"]],
+                               [r["films"] for r in res["before"]], rtol=1e-15)
 
 
 @pytest.fixture(scope="module")

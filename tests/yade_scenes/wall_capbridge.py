@@ -22,7 +22,8 @@ Each row: the gap of each sphere (from the known geometry), the force YADE appli
 each sphere and to each partner body (``O.forces.f``, after the step), the number of
 wall bridges and the liquid ledger.  With ``--vtk DIR`` the bridges are written at
 step ``steps // 3`` (``cap.write_vtk``) and by a recorder every 40 steps, and the
-engine's own wall records at that step are in the result.  Prints one JSON line.
+engine's own wall records at that step are in the result.  With ``--reload``: run 2/3 of the steps, ``O.saveTmp``, record 60 steps, ``O.loadTmp``,
+record the same 60 steps again.  Prints one JSON line.
 """
 import argparse
 import math
@@ -50,6 +51,7 @@ cli.add_argument("--steps", type=int, default=240)
 cli.add_argument("--stretch", type=float, default=1.15)
 cli.add_argument("--vtk", default=None)
 cli.add_argument("--rule", choices=("fixed", "conserved"), default="fixed")
+cli.add_argument("--reload", action="store_true", help="O.saveTmp / O.loadTmp check")
 cfg = cli.parse_args(sys.argv[1:])
 
 mm = 1e-3
@@ -102,6 +104,21 @@ if cfg.vtk:
 O.engines = engines
 
 rows, vtk = [], None
+if cfg.reload:
+    # O.saveTmp at 2/3, 60 steps (the ruptures included), O.loadTmp, the same 60 steps
+    O.run(2 * cfg.steps // 3, True)
+    O.saveTmp()
+    runs = []
+    for _ in range(2):
+        rec = []
+        for _ in range(60):
+            O.step()
+            rec.append({"f": [[float(x) for x in O.forces.f(i)] for i in s_ids + w_ids],
+                        "n": cap.walls.n_bridges, "films": cap.model.films.tolist()})
+        runs.append(rec)
+        O.loadTmp()
+    yade_runtime.emit_result({"before": runs[0], "after": runs[1], "messages": cap.messages})
+    sys.exit(0)
 for it in range(cfg.steps):
     gaps = [float(np.dot(np.array(tuple(O.bodies[s_ids[k]].state.pos)) - feet[k], normals[k]))
             - radii[k] for k in range(n_spheres)]
