@@ -326,7 +326,9 @@ class WallBridges:
         self.initialised = False
         self._ref = None                       # (sphere positions, wall pos, wall rot)
         self.cand_k = self.cand_w = np.empty(0, np.intp)
-        self.refused_film = {}                 # (k, w) -> film of k when refused
+        # pairs refused for lack of liquid (key k * n_partners + w, sorted) and the
+        # sphere's film then: tried again only once that film has grown
+        self.ref_key, self.ref_film = np.empty(0, np.int64), np.empty(0)
         self.applied = {}                      # wall body id -> (force, torque) held
         self.last = None
 
@@ -391,10 +393,21 @@ class WallBridges:
             np.subtract.at(m.films, k[ok], vol[ok])
             np.maximum(m.films, 0.0, out=m.films)        # round-off of the subtractions
             self._add(k[ok], w[ok], vol[ok])
-        for a, b in zip(k[refused].tolist(), w[refused].tolist()):
-            self.refused_film[(a, b)] = float(m.films[a])
+        if refused.any():
+            self._set_refused(self._keys(k[refused], w[refused]), m.films[k[refused]])
         self.ledger["formations_short_of_liquid"] += int(refused.sum())
         return int(ok.sum()), refused
+
+    def _keys(self, k, w):
+        return k.astype(np.int64) * self.walls.ids.size + w
+
+    def _set_refused(self, keys, films):
+        """Record refused pairs (a pair refused again gets its new film)."""
+        keep = ~np.isin(self.ref_key, keys)
+        key = np.concatenate([self.ref_key[keep], keys])
+        film = np.concatenate([self.ref_film[keep], films])
+        order = np.argsort(key)
+        self.ref_key, self.ref_film = key[order], film[order]
 
     def _candidates(self, pos, reach):
         """Sphere-partner pairs within ``reach`` [m] of contact, without a bridge."""
@@ -417,11 +430,13 @@ class WallBridges:
         m = self.model
         self.walls.read(O)
         touched = [self.k.copy()]
+        geo = None
         if self.n_bridges:
-            foot, nrm, dist = closest_points(self.walls, self.w, pos[self.k])
-            broken = dist - m.radii[self.k] > self.d_rupt
+            geo = closest_points(self.walls, self.w, pos[self.k])
+            broken = geo[2] - m.radii[self.k] > self.d_rupt
             if broken.any():
                 self._rupture(broken)
+                geo = tuple(a[~broken] for a in geo)
         # Verlet list of candidate pairs (skin = the spheres' skin)
         skin = m.skin
         moved = np.inf if self._ref is None or self._ref[0].shape != pos.shape else float(
@@ -431,24 +446,24 @@ class WallBridges:
             self.cand_k, self.cand_w = self._candidates(pos, skin + m.formation_gap)
             self._ref = (pos.copy(), self.walls.pos.copy(), self.walls.rot.copy())
         reach = max(m.formation_gap, m.initial_wet_gap) if first else m.formation_gap
+        n0 = self.n_bridges
         if self.cand_k.size:
-            have = set(zip(self.k.tolist(), self.w.tolist()))
-            free = np.array([(a, b) not in have for a, b in
-                             zip(self.cand_k.tolist(), self.cand_w.tolist())], bool)
-            ck, cw = self.cand_k[free], self.cand_w[free]
-            if self.refused_film and ck.size:
+            ckey = self._keys(self.cand_k, self.cand_w)
+            free = ~np.isin(ckey, self._keys(self.k, self.w))
+            if self.ref_key.size:
                 # a refused pair is tried again only once its sphere's film has grown
-                again = np.array([m.films[a] > self.refused_film.get((a, b), -1.0)
-                                  for a, b in zip(ck.tolist(), cw.tolist())], bool)
-                ck, cw = ck[again], cw[again]
+                i = np.clip(np.searchsorted(self.ref_key, ckey), 0, self.ref_key.size - 1)
+                was = np.where(self.ref_key[i] == ckey, self.ref_film[i], -1.0)
+                free &= m.films[self.cand_k] > was
+            ck, cw = self.cand_k[free], self.cand_w[free]
             if ck.size:
                 _, _, dist = closest_points(self.walls, cw, pos[ck])
                 go = dist - m.radii[ck] <= reach
                 if go.any():
-                    n0 = self.n_bridges
                     made, _ = self._form(ck[go], cw[go])
-                    for a, b in zip(self.k[n0:].tolist(), self.w[n0:].tolist()):
-                        self.refused_film.pop((a, b), None)
+                    if self.ref_key.size:
+                        keep = ~np.isin(self.ref_key, self._keys(self.k[n0:], self.w[n0:]))
+                        self.ref_key, self.ref_film = self.ref_key[keep], self.ref_film[keep]
                     vol_new = float(self.vol[n0:].sum())
                     key = "initial" if first else "formed"
                     self.ledger[f"{key}_count"] += int(made)
@@ -457,7 +472,11 @@ class WallBridges:
         # forces: F = F*(s) 2 pi gamma R, s = sqrt(1 - gap/d_rupt), towards the foot
         forces = np.zeros((m.n, 3))
         if self.n_bridges:
-            foot, nrm, dist = closest_points(self.walls, self.w, pos[self.k])
+            if self.n_bridges > n0:               # new bridges: their feet too
+                new = closest_points(self.walls, self.w[n0:], pos[self.k[n0:]])
+                geo = new if geo is None or n0 == 0 else tuple(
+                    np.concatenate([a, b]) for a, b in zip(geo, new))
+            foot, nrm, dist = geo
             gap = dist - m.radii[self.k]
             f = _profile_force(self.rows, gap / self.d_rupt) * self.fscale
             fv = -nrm * f[:, None]
@@ -527,7 +546,7 @@ class WallBridges:
         self.k = new[self.k]
         self.theta_s = self.theta_s[~gone]
         self._ref = None
-        self.refused_film = {}
+        self.ref_key, self.ref_film = np.empty(0, np.int64), np.empty(0)
 
     # ----------------------------------------------------------------- reporting
     def summary(self):
@@ -556,7 +575,7 @@ class WallBridges:
         return {"k": self.k.copy(), "w": self.w.copy(), "vol": self.vol.copy(),
                 "wall_ids": self.walls.ids.copy(), "ledger": dict(self.ledger),
                 "initialised": self.initialised,
-                "refused": [[a, b, f] for (a, b), f in self.refused_film.items()],
+                "ref_key": self.ref_key.copy(), "ref_film": self.ref_film.copy(),
                 "applied": [[i, list(f), list(t)] for i, (f, t) in self.applied.items()]}
 
     def set_state(self, st):
@@ -568,7 +587,8 @@ class WallBridges:
             self._add(k, np.asarray(st["w"], np.intp), np.asarray(st["vol"], float))
         self.ledger = dict(st["ledger"])
         self.initialised = bool(st["initialised"])
-        self.refused_film = {(int(a), int(b)): float(f) for a, b, f in st["refused"]}
+        self.ref_key = np.asarray(st["ref_key"], np.int64)
+        self.ref_film = np.asarray(st["ref_film"], float)
         # YADE drops permanent forces on load: nothing of ours is held any more
         self.applied = {}
         self._ref = None
