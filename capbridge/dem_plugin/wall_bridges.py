@@ -38,6 +38,8 @@ linear interpolation in s, as for the doublets.
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from capbridge.dimensionless import force_scale
@@ -331,6 +333,7 @@ class WallBridges:
         self.ref_key, self.ref_film = np.empty(0, np.int64), np.empty(0)
         self.applied = {}                      # wall body id -> (force, torque) held
         self.last = None
+        self.timings = {"updates": 0, "seconds": 0.0, "rebuilds": 0, "rebuild_seconds": 0.0}
 
     def _empty(self):
         e = np.empty(0, np.intp)
@@ -427,6 +430,7 @@ class WallBridges:
 
         Returns ``(forces, touched)``: the (n, 3) forces on the spheres [N] and the rows
         whose wall force changed (bridged now or ruptured now)."""
+        t0 = time.perf_counter()
         m = self.model
         self.walls.read(O)
         touched = [self.k.copy()]
@@ -443,8 +447,11 @@ class WallBridges:
             np.linalg.norm(pos - self._ref[0], axis=1).max(initial=0.0))
         if moved + self.walls.motion_since(*(self._ref[1:] if self._ref else (None, None))) \
                 > 0.5 * skin:
+            t_r = time.perf_counter()
             self.cand_k, self.cand_w = self._candidates(pos, skin + m.formation_gap)
             self._ref = (pos.copy(), self.walls.pos.copy(), self.walls.rot.copy())
+            self.timings["rebuilds"] += 1
+            self.timings["rebuild_seconds"] += time.perf_counter() - t_r
         reach = max(m.formation_gap, m.initial_wet_gap) if first else m.formation_gap
         n0 = self.n_bridges
         if self.cand_k.size:
@@ -485,6 +492,8 @@ class WallBridges:
         else:
             self.last = None
         touched.append(self.k)
+        self.timings["updates"] += 1
+        self.timings["seconds"] += time.perf_counter() - t0
         return forces, np.unique(np.concatenate(touched))
 
     def _rupture(self, mask):
@@ -553,6 +562,7 @@ class WallBridges:
         """Counts, volumes and the ledger of the wall bridges."""
         out = dict(self.ledger)
         out.update(n_bridges=self.n_bridges, volume=self.volume, n_partners=int(self.walls.ids.size),
+                   timings=dict(self.timings), candidates=int(self.cand_k.size),
                    total_force=float(self.last["force"].sum()) if self.last is not None else 0.0)
         if self.model.liquid.kind == "fixed":
             exp = out["initial_volume"] + out["formed_volume"] - out["ruptured_volume"] \

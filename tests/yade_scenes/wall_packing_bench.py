@@ -53,6 +53,8 @@ O.engines = [ForceResetter(),
 O.dt = 0.5 * utils.PWaveTimeStep()
 O.run(cfg.settle, True)
 cap.timings.update(steps=0, seconds=0.0, cpu_seconds=0.0)
+if cap.walls is not None:
+    cap.walls.timings.update(updates=0, seconds=0.0, rebuilds=0, rebuild_seconds=0.0)
 t0 = time.perf_counter()
 O.run(cfg.steps, True)
 wall = time.perf_counter() - t0
@@ -64,4 +66,6 @@ yade_runtime.emit_result({
     "total_ms_per_step": 1e3 * wall / cfg.steps,
     "setup_seconds": cap.timings["setup_seconds"],
     "n_bridges": st["n_bridges"], "wall_bridges": (st["walls"] or {}).get("n_bridges", 0),
+    "wall_timings": (st["walls"] or {}).get("timings"),
+    "wall_candidates": (st["walls"] or {}).get("candidates"),
     "budget_error": st["budget"]["balance_error"], "liquid": st["liquid"]})
