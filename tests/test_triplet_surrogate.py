@@ -383,7 +383,9 @@ def test_lower_energy_state(table, sur):
     """Without separated energies the state is 'unknown'; with them, the sign of
     E_coalesced - E_separated beyond the energy error decides."""
     g, t, V = _inside(sur, 50, 10)
-    r = sur.predict(*g, V, t)
+    bare = TripletSurrogate().fit(_editable(table).drop_vars("energy_separated",
+                                                            errors="ignore"))
+    r = bare.predict(*g, V, t)
     assert np.all(r["lower_energy_state"] == 3) and LOWER_ENERGY_STATES[3] == "unknown"
     E = table["energy_extrapolated"]
     for shift, code in ((1.0, 0), (-1.0, 1), (0.0, 2)):
@@ -429,3 +431,16 @@ def test_coalescence_volume_against_exact(table):
             pytest.skip("the table covers fewer than 5 of the exact points")
         r = s.coalescence_volume(*(x[inside] for x in g), t[inside])
         assert np.max(np.abs(r["volume_coalescence"] / V[inside] - 1)) < tol
+
+
+def test_lower_energy_state_without_separated_states(table, sur):
+    """NaN energy_separated means no separated state exists: where no node of the cell
+    has one, the coalesced body is the lower (only) state; forces are unaffected."""
+    g, t, V = _inside(sur, 50, 12)
+    E = table["energy_extrapolated"] * np.nan
+    s = TripletSurrogate().fit(table, separated_energy=E.rename("energy_separated"))
+    r, a = s.predict(*g, V, t), sur.predict(*g, V, t)
+    ok = np.isin(r["status"], ANSWERED)
+    assert np.all(r["lower_energy_state"][ok] == 0)
+    for n in PAIR_NAMES:
+        np.testing.assert_array_equal(r[n], a[n])

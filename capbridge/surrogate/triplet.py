@@ -90,9 +90,11 @@ GRID_VARIABLES = ("f12", "f13", "f23", "pressure", "energy")
 
 #: codes of ``lower_energy_state``
 LOWER_ENERGY_STATES = {
-    0: "coalesced",      # E_coalesced < E_separated by more than their error estimates
+    0: "coalesced",      # E_coalesced < E_separated by more than their error estimates,
+                         # or no separated state exists (the only state)
     1: "separated",      # E_separated < E_coalesced by more than their error estimates
-    2: "undecided",      # |E_coalesced - E_separated| within the energy error estimate
+    2: "undecided",      # |E_coalesced - E_separated| within the energy error estimate,
+                         # or the separated states stop existing inside the table cell
     3: "unknown",        # no separated-state energy in the fit inputs (or no result here)
 }
 _UNKNOWN = 3
@@ -450,8 +452,9 @@ class TripletSurrogate:
             the coalescence table whenever it exists.
         separated_energy : path, xarray.Dataset or xarray.DataArray, optional
             ``energy_separated`` (E* of the lowest separated state at the same total
-            volume, on the table's (d12, d13, d23, theta, v) grid).  Used if the table
-            itself does not carry it; without it ``lower_energy_state`` is "unknown".
+            volume, on the table's (d12, d13, d23, theta, v) grid; NaN where no
+            separated state exists).  Default: the table's own ``energy_separated``
+            if it has one; without either, ``lower_energy_state`` is "unknown".
         """
         ds = self._load(table)
         self.table_ = ds
@@ -493,13 +496,19 @@ class TripletSurrogate:
         self.node_code_ = code.astype(np.int8)
         self.cell_code_ = np.ascontiguousarray(_cell_max(self.node_code_))
         self.cell_force_error_ = np.ascontiguousarray(_cell_max(np.where(has, extra[0], 0.0)))
+        masks = [has] * len(GRID_VARIABLES)
         if esep is not None:
             self.cell_energy_error_ = np.ascontiguousarray(_cell_max(extra[1]))
-            # a cell with a node where no separated state exists: the comparison is unknown
-            self.cell_energy_unknown_ = np.ascontiguousarray(_cell_max(extra[2]) > 0)
-            has &= extra[2] == 0
-        filled = np.stack([_fill_failed(vals[..., k], has, (4, 3)) for k in
-                           range(vals.shape[-1])], -1)
+            # NaN energy_separated: no separated state exists at that node.  A cell
+            # where none exists at any node: the coalesced body is the only state; at
+            # some nodes only: the boundary crosses the cell, "undecided"
+            none = extra[2] > 0
+            self.cell_no_separated_ = np.ascontiguousarray(
+                np.where(-_cell_max(-none.astype(np.int8)) > 0, 2,
+                         np.where(_cell_max(none.astype(np.int8)) > 0, 1, 0)).astype(np.int8))
+            masks.append(has & ~none)                  # E_coal - E_sep: its own mask
+        filled = np.stack([_fill_failed(vals[..., k], m, (4, 3)) for k, m in
+                           enumerate(masks)], -1)
         self._coarse = (coarse, filled)
         self.kernel_ = "simplex" if self.method != "linear" else "multilinear"
         self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
@@ -548,10 +557,11 @@ class TripletSurrogate:
         return ds
 
     def _separated(self, ds, separated_energy):
-        if "energy_separated" in ds:
-            return np.asarray(ds["energy_separated"].values, float)
+        """E_separated on the grid: the ``separated_energy`` argument, else the
+        table's own ``energy_separated``, else None."""
         if separated_energy is None:
-            return None
+            return np.asarray(ds["energy_separated"].values, float) \
+                if "energy_separated" in ds else None
         src = separated_energy
         if not isinstance(src, (xr.Dataset, xr.DataArray)):
             from capbridge.generator.netcdf_io import read_table
@@ -831,9 +841,10 @@ class TripletSurrogate:
             dE = np.where(nores, np.nan, vals[:, len(GRID_VARIABLES)])
             err = self.cell_energy_error_.ravel()[cidx]
             lower = np.where(dE < -err, 0, np.where(dE > err, 1, 2)).astype(np.int8)
-            unknown = nores | self.cell_energy_unknown_.ravel()[cidx]
-            lower[unknown] = _UNKNOWN
-            dE = np.where(unknown, np.nan, dE)
+            nosep = self.cell_no_separated_.ravel()[cidx]      # 0 all, 1 some, 2 none
+            lower = np.where(nosep == 2, 0, np.where(nosep == 1, 2, lower)).astype(np.int8)
+            lower[nores] = _UNKNOWN
+            dE = np.where(nores | (nosep > 0), np.nan, dE)
             res["energy_difference"] = dE
         else:
             res["energy_difference"] = np.full(V.size, np.nan)
