@@ -50,16 +50,27 @@ and the allowed range.
 
 Unequal radii (documented approximation, status ``APPROXIMATE``)
 -----------------------------------------------------------------
-Each pair force f_ij is taken from the equal-sphere table scaled by the pair's
-Derjaguin radius R_ij = 2 R_i R_j / (R_i + R_j): the triplet is looked up with all
-its gaps and its volume normalised by R_ij (d/R_ij, V/R_ij^3) and
-F_ij = 2 pi gamma R_ij f*_ij.  For a doublet R_ij is the radius that makes the
-contact force 2 pi gamma R cos(theta) exact (Derjaguin) and carries the gap and
-volume dependence of the pendular bridge to first order; in the coalesced body each
-pair force is dominated by the liquid near its own contact.  Measured against Surface
-Evolver (level 3, the table's settings) on the triplets of ``benchmarks/bench_triplet.py``
-(radii ratios up to 2; figures in ``benchmarks/RESULTS.md``, "Triplet surrogate"):
-see :data:`UNEQUAL_RADII_ERROR`.
+The table is for equal spheres.  For radii R1, R2, R3 the triplet is looked up once as
+the equal-sphere triplet of the harmonic mean radius R_h = 3 / (1/R1 + 1/R2 + 1/R3)
+(gaps / R_h, V / R_h^3: one liquid body, one volume scale), and each pair force is
+scaled by that pair's Derjaguin radius R_ij = 2 R_i R_j / (R_i + R_j) instead of R_h:
+F_ij = 2 pi gamma R_ij f*_ij.  For a doublet R_ij is the radius that makes the contact
+force 2 pi gamma R cos(theta) exact; in the body each pair force comes from the
+meniscus near its own contact, whose curvature is that of the pair.  Other schemes
+(:data:`UNEQUAL_SCHEMES`, ``predict_vectors(..., unequal=...)``) were measured against
+Surface Evolver on the same triplets and are worse: one lookup per pair at R_ij
+("pair") leaves the table's v range for 6 of these 13 triplets (V / R_ij^3 varies by up
+to 8x between the pairs) and reaches 53 % where it answers; one lookup with forces * R_h
+("harmonic") 8 % median, 23 % max; the arithmetic mean 11 %, 35 %.
+
+Measured (``benchmarks/bench_triplet.py``, Evolver level 3 with the table's settings,
+``benchmarks/triplet_unequal_evolver.json``): on 13 triplets with radii ratios up to 2
+(theta 0-80 deg, v 1.1-1.5) the relative error of f_ij is 2.3 % median and 10.7 % max
+(force vectors: 7.4 % of the largest grain force at most), against 0.25 % for an
+equal-radii control; the largest errors are on the pair between the two large grains
+of a (2, 2, 1) or (2, 1, 1) triplet at theta >= 60 deg.  Measured on the completed
+sub-cube d <= 0.1 of the shipped grid (the full table was still being computed; see
+``benchmarks/RESULTS.md``).  See :data:`UNEQUAL_RADII_ERROR`.
 
 References
 ----------
@@ -101,7 +112,8 @@ _UNKNOWN = 3
 
 #: errors of the unequal-radii approximation against Surface Evolver (relative, f_ij),
 #: filled from benchmarks/bench_triplet.py (see the module docstring)
-UNEQUAL_RADII_ERROR = {"median": None, "max": None, "n_triplets": 0,
+UNEQUAL_RADII_ERROR = {"scheme": "harmonic_pair", "median": 0.023, "max": 0.107,
+                       "vector_max": 0.074, "n_triplets": 13, "equal_control_max": 0.0025,
                        "source": "benchmarks/RESULTS.md, Triplet surrogate"}
 
 #: default fine-grid nodes per table interval: gaps, theta, v (chosen from the
@@ -869,7 +881,7 @@ class TripletSurrogate:
                 "solve triplet)")
 
     # ---------------------------------------------------------------------- vectors
-    def predict_vectors(self, centres, volume, theta, radii=None, unequal="pair"):
+    def predict_vectors(self, centres, volume, theta, radii=None, unequal="harmonic_pair"):
         """Force vectors on the three grains in the caller's frame, from the centres.
 
         Parameters
@@ -885,9 +897,9 @@ class TripletSurrogate:
             Grain radii / r.  Unequal radii use the approximation of the module
             docstring (status APPROXIMATE); equal radii R scale the equal-sphere
             answer exactly (lengths / R, forces * R).
-        unequal : {"pair", "harmonic_pair", "harmonic", "arithmetic"}
-            The unequal-radii approximation (compared in ``benchmarks/bench_triplet.py``;
-            :data:`UNEQUAL_SCHEMES`): the default is the one with the smallest error.
+        unequal : {"harmonic_pair", "pair", "harmonic", "arithmetic"}
+            The unequal-radii approximation (:data:`UNEQUAL_SCHEMES`, compared in
+            ``benchmarks/bench_triplet.py``); the default has the smallest error.
 
         Returns
         -------
@@ -897,8 +909,7 @@ class TripletSurrogate:
             torque about the grain centres.  Also the pair forces ``f12``, ``f13``,
             ``f23`` (F*), ``gaps`` (..., 3) = (d12, d13, d23) / r, and the other keys
             of :meth:`predict` (pressure in gamma/r, energy in gamma r^2, volumes in
-            r^3, for unequal radii those of the R_12 lookup, status combined over the
-            three lookups).
+            r^3; for unequal radii those of the lookup at R_h, status APPROXIMATE).
         """
         self._check_fitted()
         C = check_range("centres", centres)
