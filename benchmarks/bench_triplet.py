@@ -341,18 +341,21 @@ def bench(args):
     une, data = unequal(sur)
     cpu = [e["cpu_time"] for e in data.values()]
     n_equal = sum(len(set(e["radii"])) == 1 for e in data.values())
+    shipped = Path(args.table).resolve() == (ROOT / "data" / "triplet_table.nc").resolve()
+    table_opt = "" if shipped else f" --table {Path(args.table).name}"
     load = os.getloadavg()
     lines = [
         f"### Triplet surrogate ({time.strftime('%Y-%m-%d')})", "",
-        f"Command: `.venv/bin/python benchmarks/bench_triplet.py --write` (table "
+        f"Command: `.venv/bin/python benchmarks/bench_triplet.py --write{table_opt}` (table "
         f"`{Path(args.table).name}`" + (f", coalescence table "
                                          f"`{Path(args.coalescence_table).name}`"
                                          if args.coalescence_table else "") +
         f"); machine: {platform.processor() or platform.machine()}, {os.cpu_count()} "
         f"cores shared with other jobs (load average {load[0]:.1f}), one thread "
         f"(OPENBLAS/OMP/MKL_NUM_THREADS=1), numpy {np.__version__}, Python "
-        f"{platform.python_version()}; whole run {time.perf_counter() - t0:.0f} s.", "",
-        f"Lookup rate, {tp['n']:,} random points each (triplet: gaps, theta uniform in "
+        f"{platform.python_version()}; whole run {time.perf_counter() - t0:.0f} s.", ""]
+    lines += [args.note, ""] if args.note else []
+    lines += [f"Lookup rate, {tp['n']:,} random points each (triplet: gaps, theta uniform in "
         f"the table, v uniform 1 % inside its range; {100 * tp['answered']:.1f} % of them "
         "in cells with a result; doublet: the benchmark points of bench_doublet.py). "
         "Per CPU second of this process (the per-core figure on a shared machine) and "
@@ -406,9 +409,17 @@ def bench(args):
         lines.append(f"| {scheme}: {UNEQUAL_SCHEMES[scheme]} | {e['median']:.2e} | "
                      f"{e['max']:.2e} | {e['vector_max']:.2e} | {e['control_max']:.2e} | "
                      f"{e['n_triplets']} |")
+    lines.append("")
     for scheme, e in une.items():
-        for key, why in e["skipped"]:
-            lines.append(f"- {scheme}: skipped {key}: {why}")
+        kinds = {"gaps outside the table": 0, "v outside the table": 0,
+                 "no result in the cell": 0}
+        for _, why in e["skipped"]:
+            kinds["v outside the table" if why.startswith("volume") else
+                  "no result in the cell" if why.startswith("status") else
+                  "gaps outside the table"] += 1
+        if e["skipped"]:
+            lines.append(f"- {scheme}: {len(e['skipped'])} triplets not answered (" +
+                         ", ".join(f"{k}: {n}" for k, n in kinds.items() if n) + ")")
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
@@ -438,6 +449,7 @@ def main(argv=None):
     p.add_argument("--coalescence-table", default=str(coal) if coal.exists() else None,
                    help="default: data/triplet_coalescence.nc if it exists")
     p.add_argument("--n", type=int, default=1_000_000, help="points of the rate runs")
+    p.add_argument("--note", default="", help="a paragraph printed under the command")
     p.add_argument("--write", action="store_true",
                    help="append the section to benchmarks/RESULTS.md")
     args = p.parse_args(argv)
