@@ -310,36 +310,51 @@ def _cell_max(node_codes):
     return c
 
 
-def _fill_failed(values, ok, axis_order):
+def _line_fill(v, good, axis):
+    """Linear interpolation / extrapolation of the valid nodes along ``axis`` at the
+    failed ones (lines with no valid node are left); returns (values, filled mask)."""
+    vm = np.moveaxis(np.array(v, float), axis, -1)
+    gm = np.moveaxis(np.array(good, bool), axis, -1)
+    n = vm.shape[-1]
+    x = np.arange(n, dtype=float)
+    for idx in np.ndindex(vm.shape[:-1]):
+        g = gm[idx]
+        if g.all() or not g.any():
+            continue
+        xs, ys = x[g], vm[idx][g]
+        if xs.size == 1:
+            fill = np.full(n, ys[0])
+        else:
+            fill = np.interp(x, xs, ys)
+            lo, hi = x < xs[0], x > xs[-1]
+            fill[lo] = ys[0] + (x[lo] - xs[0]) * (ys[1] - ys[0]) / (xs[1] - xs[0])
+            fill[hi] = ys[-1] + (x[hi] - xs[-1]) * (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
+        vm[idx][~g] = fill[~g]
+        gm[idx] = True
+    return np.moveaxis(vm, -1, axis), np.moveaxis(gm, -1, axis)
+
+
+def _fill_failed(values, ok, axis_order, gap_axes=(0, 1, 2)):
     """Placeholder values at failed nodes, so that splines through the cube stay finite.
 
-    Along each axis in ``axis_order`` (label-free axes only: theta and v, so the fill
-    keeps the permutation symmetry), failed nodes get the linear interpolation or
-    extrapolation of the valid nodes of their line; what is left gets the mean of the
-    valid values.  Cells touching a failed node carry no number (their status says
-    why), so the fill only shapes the splines in the neighbouring cells.
+    Along each axis in ``axis_order`` (theta and v), failed nodes get the linear
+    interpolation or extrapolation of the valid nodes of their line; nodes left (a
+    whole (theta, v) plane failed) get the mean of such fills along the three gap axes
+    (symmetric under relabelling), then the mean of the valid values.  Cells touching
+    a failed node carry no number (their status says why), so the fill only shapes the
+    splines in the neighbouring cells.
     """
     v = np.array(values, float)
     good = np.array(ok, bool)
     for a in axis_order:
-        vm, gm = np.moveaxis(v, a, -1), np.moveaxis(good, a, -1)
-        n = vm.shape[-1]
-        x = np.arange(n, dtype=float)
-        for idx in np.ndindex(vm.shape[:-1]):
-            g = gm[idx]
-            if g.all() or g.sum() == 0:
-                continue
-            xs, ys = x[g], vm[idx][g]
-            if xs.size == 1:
-                fill = np.full(n, ys[0])
-            else:
-                fill = np.interp(x, xs, ys)
-                lo, hi = x < xs[0], x > xs[-1]
-                fill[lo] = ys[0] + (x[lo] - xs[0]) * (ys[1] - ys[0]) / (xs[1] - xs[0])
-                fill[hi] = ys[-1] + (x[hi] - xs[-1]) * (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
-            row = vm[idx]
-            row[~g] = fill[~g]
-            gm[idx] = True
+        v, good = _line_fill(v, good, a)
+    if not good.all() and good.any():
+        fills = [_line_fill(v, good, a) for a in gap_axes if a < v.ndim]
+        total = sum(np.where(m & ~good, f, 0.0) for f, m in fills)
+        count = sum((m & ~good).astype(int) for _, m in fills)
+        take = count > 0
+        v[take] = total[take] / count[take]
+        good = good | take
     if not good.all():
         v[~good] = np.nanmean(values[ok]) if ok.any() else 0.0
     return v
