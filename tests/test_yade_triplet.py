@@ -10,7 +10,8 @@ applied:
   surrogate's (predict_vectors at the centres the engine saw, total volume = the two
   bridges') within 1 % (in fact to round-off), summing to zero;
 * pulling apart splits the cluster (split_geometry), the two bridges share its liquid at
-  equal Laplace pressure at that step (exact doublets, an independent solve), their volumes add up to
+  equal Laplace pressure at that step (the doublet table's, checked with exact doublets
+  to the table's 1e-3), their volumes add up to
   the two initial bridges' to 1e-12 and the ledger balances to 1e-12;
 * a scene saved with a cluster (O.saveTmp) and loaded again (O.loadTmp) gives the same
   forces and cluster as the run that went on;
@@ -115,8 +116,10 @@ def test_triplet_forces_then_split_in_yade(sur):
     # while their gaps change, as every bridge of the engine does)
     split = rows[merged[-1] + 1]
     assert split["triplets"]["events"]["split_geometry"] == 1 and split["vol"] == last["vol"]
+    # the engine's default split: equal pressure on the doublet table (to its P*
+    # interpolation error against exact doublets)
     P = solve_doublet(np.array(split["gap"]) / R, vol / R**3, THETA)["pressure"]
-    assert P[0] == pytest.approx(P[1], rel=1e-7)
+    assert P[0] == pytest.approx(P[1], rel=1e-3)
     # and the doublet forces are back: grain 0 feels its one bridge only
     f0 = np.array(last["forces"][0])
     assert np.linalg.norm(f0) == pytest.approx(last["bridge_force"][

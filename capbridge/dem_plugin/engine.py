@@ -156,10 +156,11 @@ ENGINE_PARAMETERS = {
                              "only)"),
     "triplet_table": (None, "triplet table (path); default the shipped "
                             "data/triplet_table.nc, read at the first coalesced triplet"),
-    "triplet_split": ("exact", "how a split cluster shares its liquid: 'exact' (equal "
-                               "Laplace pressure, exact doublets, seconds per split) or "
-                               "'merge_volumes' (the bridges' volumes at the merge, no "
-                               "solve)"),
+    "triplet_split": ("table", "how a split cluster shares its liquid: 'table' (equal "
+                               "Laplace pressure on the doublet table, milliseconds), "
+                               "'exact' (equal pressure, exact doublets, seconds per "
+                               "split) or 'merge_volumes' (the bridges' volumes at the "
+                               "merge, no solve)"),
     "coalescence_every": (100, "steps between coalescence checks"),
     "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
                     "data/doublet_table.nc"),
@@ -330,7 +331,7 @@ class CapbridgeEngine:
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=None, triplet_table=None, walls=False,
-                 triplet_split="exact"):
+                 triplet_split="table"):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
         per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
@@ -377,7 +378,7 @@ class CapbridgeEngine:
         self.coalescence = bool(coalescence)
         self.coalescence_every = max(1, int(coalescence_every))
         from capbridge.validation import check_choice
-        check_choice("triplet_split", triplet_split, ("exact", "merge_volumes"))
+        check_choice("triplet_split", triplet_split, ("table", "exact", "merge_volumes"))
         self.triplet_split = triplet_split
         self._init_triplets(triplet_forces, triplet_table)
         self.table = table if table is not None else default_table_path()
