@@ -445,3 +445,27 @@ def test_lower_energy_state_without_separated_states(table, sur):
     assert np.all(r["lower_energy_state"][ok] == 0)
     for n in PAIR_NAMES:
         np.testing.assert_array_equal(r[n], a[n])
+
+
+def test_covers_matches_predict_vectors_with_radii(sur):
+    """covers(..., radii) says True exactly where predict_vectors(radii) does not raise
+    for the gaps (unequal radii, default scheme)."""
+    rng = np.random.default_rng(13)
+    R = rng.uniform(1.0, 2.0, (40, 3))
+    g = rng.uniform(0.0, 1.6 * sur.gaps_[-1], (40, 3))
+    t = np.full(40, sur.theta_[1])
+    cov = sur.covers(g[:, 0], g[:, 1], g[:, 2], t, radii=R)
+    L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(PAIRS)], 1)
+    for k in range(40):
+        a, b, c = L[k]
+        x3 = (a * a + b * b - c * c) / (2 * a)
+        C = np.array([[0, 0, 0], [a, 0, 0], [x3, 0, np.sqrt(b * b - x3 * x3)]])
+        Rh = 3 / np.sum(1 / R[k])
+        Vc = sur.coalescence_volume(*np.clip(g[k] / Rh, sur.gaps_[0], sur.gaps_[-1]), t[k])
+        V = 1.2 * float(Vc["volume_coalescence"]) * Rh**3
+        try:
+            sur.predict_vectors(C, V, t[k], radii=R[k])
+            answered = True
+        except CapbridgeInputError as exc:
+            answered = "v = V*/V*_coal" in str(exc)     # a volume matter, not the gaps
+        assert answered == bool(cov[k]), (k, g[k], R[k])

@@ -717,9 +717,23 @@ class TripletSurrogate:
         return {"gap": (self.gaps_[0], self.gaps_[-1]),
                 "theta": (self.theta_[0], self.theta_[-1]), "v": (self.v_[0], self.v_[-1])}
 
-    def covers(self, d12, d13, d23, theta):
-        """True where the geometry and angle lie inside the table (any volume ratio)."""
+    def covers(self, d12, d13, d23, theta, radii=None, unequal="harmonic_pair"):
+        """True where the geometry and angle lie inside the table (any volume ratio).
+
+        With ``radii`` (..., 3) (in the unit of the gaps), the gaps are first scaled as
+        :meth:`predict_vectors` scales them for the ``unequal`` scheme (for the
+        default, by the harmonic mean radius; the "pair" scheme: by every pair's
+        Derjaguin radius, all three lookups must be covered)."""
         self._check_fitted()
+        if radii is not None:
+            R = np.asarray(radii, float)
+            equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
+            ok = True
+            for lk, _ in {id(a): (a, b) for a, b in
+                          _unequal_scales(R, equal, unequal)}.values():
+                ok = ok & self.covers(*(np.asarray(d, float) / lk for d in (d12, d13, d23)),
+                                      theta)
+            return ok
         lo, hi = self.gaps_[0] * (1 - _TOL) - _TOL, self.gaps_[-1] * (1 + _TOL)
         ok = np.ones(np.broadcast_shapes(*(np.shape(x) for x in (d12, d13, d23, theta))),
                      bool)
