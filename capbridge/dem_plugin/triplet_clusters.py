@@ -375,12 +375,10 @@ class LiquidClusters:
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
-        # clusters whose gaps (/ the pair's Derjaguin radius, as the surrogate looks
-        # unequal radii up; / r for equal ones) or angle are outside the table are
-        # OUT_OF_RANGE without a lookup
-        Rij = np.stack([2 * R[:, a] * R[:, b] / (R[:, a] + R[:, b]) for a, b in P], 1)
-        gs = g / Rij
-        ask = np.flatnonzero(sur.covers(gs[:, 0], gs[:, 1], gs[:, 2], theta))
+        # clusters whose gaps (scaled as predict_vectors scales them) or angle are
+        # outside the table are OUT_OF_RANGE without a lookup
+        ask = np.flatnonzero(sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
+                                        radii=R / r[:, None]))
         if ask.size:
             try:
                 res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
