@@ -173,7 +173,9 @@ class EvolverPlan:
         return dataclasses.asdict(self)
 
     def finer(self):
-        return dataclasses.replace(self, max_refine=self.max_refine + 1,
+        """Settings of the held-out points: exactly one level finer (tolerances 0, so
+        that no point stops early at the table's own level)."""
+        return dataclasses.replace(self, max_refine=self.max_refine + 1, ftol=0.0, etol=0.0,
                                    level_timeout=4 * self.level_timeout,
                                    total_timeout=4 * self.total_timeout)
 
@@ -422,7 +424,8 @@ def _holdout_dataset(grid, plan, n, seed, phase):
     ref = phase("holdout_coalescence_volumes", reference_chunk,
                 {"d12": g[:, 0], "d13": g[:, 1], "d23": g[:, 2], "theta": t}, 8, {})
     vol = ref["volume_coalescence"] * v
-    res = phase("holdout_bodies", functools.partial(coalesced_chunk, plan=plan),
+    res = phase(f"holdout_bodies_level{plan.max_refine}",
+                functools.partial(coalesced_chunk, plan=plan),
                 {"d12": g[:, 0], "d13": g[:, 1], "d23": g[:, 2], "theta": t,
                  "volume": vol}, 1, plan.settings())
     dim = ("holdout",)
