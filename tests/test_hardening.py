@@ -266,7 +266,16 @@ def test_lost_dask_scheduler_keeps_finished_chunks(tmp_path, monkeypatch):
     cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                        dashboard_address=None)
     client = distributed.Client(cluster)
-    threading.Timer(1.8, cluster.close).start()
+
+    def close_after_first_chunk():
+        # close the scheduler once a chunk is checkpointed (not after a fixed time: a
+        # loaded machine may not finish a chunk in any given time)
+        t_end = time.monotonic() + 30
+        while time.monotonic() < t_end and not list(ck.glob("chunk_*.npz")):
+            time.sleep(0.05)
+        cluster.close()
+
+    threading.Thread(target=close_after_first_chunk, daemon=True).start()
     t0 = time.monotonic()
     try:
         res = run_sweep(solve_slowly, {"x": x, "y": x}, checkpoint_dir=ck, chunk_size=1,
@@ -541,7 +550,8 @@ def test_evolver_status_above_tolerance():
 
     from capbridge.generator.evolver.minimise import BridgeResult, Settings, _set_final_status
 
-    s = Settings(flag_above_tolerance=True)
+    s = Settings()
+    assert s.flag_above_tolerance            # on by default
     for est, expected in (({"energy_rel": 1e-4, "force_rel": 1e-4}, Status.CONVERGED),
                           ({"energy_rel": 1e-4, "force_rel": 10 * s.ftol},
                            Status.ABOVE_TOLERANCE),
@@ -550,10 +560,9 @@ def test_evolver_status_above_tolerance():
         res = SimpleNamespace(error_estimate=est, warnings=[], status=None, reason="")
         _set_final_status(res, s)
         assert res.status == expected
-        # switched off (the default until every caller accepts the new status): the
-        # old status, but the reason still says so
+        # switched off (the default is on): the old status, but the reason still says so
         old = SimpleNamespace(error_estimate=est, warnings=[], status=None, reason="")
-        _set_final_status(old, Settings())
+        _set_final_status(old, Settings(flag_above_tolerance=False))
         assert old.status == Status.CONVERGED
         assert ("above tolerance" in old.reason) == (expected == Status.ABOVE_TOLERANCE)
     r = BridgeResult(status=Status.ABOVE_TOLERANCE, reason="x")

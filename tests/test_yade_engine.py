@@ -224,8 +224,8 @@ def test_minimal_scene_of_the_docs_runs_as_printed(mode):
     """The scene printed in docs/yade_plugin.md, run with the venv's Python and through
     ``yade -n -x`` (with capbridge and the venv's packages on PYTHONPATH, as the doc
     says)."""
-    scene = (SCENES / "minimal_capbridge_scene.py").read_text()
-    doc = DOCS.read_text()
+    scene = (SCENES / "minimal_capbridge_scene.py").read_text(encoding="utf-8")
+    doc = DOCS.read_text(encoding="utf-8")
     assert scene.strip() in doc, "docs/yade_plugin.md must show the tested scene verbatim"
     run = _run("minimal_capbridge_scene.py", require_result=False, mode=mode)
     out = run.stdout
