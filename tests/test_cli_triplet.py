@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from capbridge.cli import DEFAULT_TRIPLET_TABLE, main
+from capbridge.cli import DEFAULT_COALESCENCE_TABLE, DEFAULT_TRIPLET_TABLE, main
 from capbridge.generator.evolver import available
 from capbridge.surrogate.triplet import TripletSurrogate
 
@@ -26,7 +26,7 @@ def test_lookup_triplet_matches_the_api_and_permutes(tmp_path, capsys):
                  "--output", str(out)]) == 0
     df = pd.read_csv(out)
     assert list(df.columns[:5]) == ["d12", "d13", "d23", "V", "theta"]
-    sur = TripletSurrogate().fit(DEFAULT_TRIPLET_TABLE)
+    sur = TripletSurrogate().fit(DEFAULT_TRIPLET_TABLE, coalescence_table=DEFAULT_COALESCENCE_TABLE)
     r = sur.predict(df.d12, df.d13, df.d23, df.V, df.theta)
     np.testing.assert_allclose(df.f12, r["f12"], rtol=1e-12)
     # row 2 swaps grains 2 and 3 of row 1: f12 <-> f13; row 3 relabels 1 <-> 3

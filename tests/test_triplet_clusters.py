@@ -47,12 +47,15 @@ def doublets():
     return m.table
 
 
-def _geometry(sur, theta=0.0, v=1.15):
+def _geometry(sur, theta=0.0, v=1.6):
     """Gaps inside the table (a quarter and a half of its gap range, the shared grain
     2 at the wider two) and the total volume v V*_coal."""
+    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+
     lo, hi = sur.gaps_[0], sur.gaps_[-1]
     g01, g = lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo)
-    Vc = float(sur.coalescence_volume(g01, g, g, theta)["volume_coalescence"])
+    # the exact coalescence volume of the two bridges the tests make (on grain 3)
+    Vc = find_coalescence(triplet_geometry(g01, g, g), theta, bridges=((0, 2), (1, 2))).V_coal
     return (g01, g, g), v * Vc * R**3
 
 
@@ -81,7 +84,7 @@ def _check(m, pos):
     return geom, rep
 
 
-def _merged(sur, doublets, theta=0.0, conserve=False, v=1.15, split="table"):
+def _merged(sur, doublets, theta=0.0, conserve=False, v=1.6, split="table"):
     g, V = _geometry(sur, theta, v)
     pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
     m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], theta, doublets, conserve)
@@ -257,7 +260,7 @@ def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
     """A ring of three bridges (the two on grain 2 at 0.55 V*_coal each, the one
     between grains 0 and 1 at 0.1 V*_coal): one cluster holding all three, volume
     exact; its state saved and restored gives the same forces."""
-    g, V = _geometry(sur, v=1.2)
+    g, V = _geometry(sur, v=1.7)
     pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
     vols = np.array([0.1, 0.55, 0.55]) * V / 1.2
     m = _model(pos, [(0, 1), (0, 2), (1, 2)], vols, 0.0, doublets, conserve=True)
@@ -279,7 +282,7 @@ def test_unequal_radii_are_approximate_and_counted(sur):
     """Radii 1 and 1.1 mm: merged with the surrogate's unequal-radii approximation
     (status approximate), counted; forces those of predict_vectors(radii=...)."""
     radii = np.array([1.0, 1.1, 1.0]) * R
-    g, V = _geometry(sur, v=1.25)
+    g, V = _geometry(sur, v=1.8)
     L = [radii[a] + radii[b] + gg * R for (a, b), gg in zip(((0, 1), (0, 2), (1, 2)), g)]
     pos = triangle_centres(*L)
     m = BridgeModel(radii, 0.0, default_table_path(), GAMMA, LiquidRule(bridge_volume=V / 2))

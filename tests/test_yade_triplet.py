@@ -38,7 +38,7 @@ from capbridge.surrogate.triplet import default_table
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_capbridge.py"
 TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
 R = 1e-3
-THETA = 0.0
+THETA = 60.0
 REL_TOL = 0.01          # the "within 1 %"
 _YADE = yr.find_yade()
 pytestmark = [pytest.mark.yade,
