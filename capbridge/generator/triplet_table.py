@@ -74,9 +74,6 @@ _FAILURE_WORDS = (("no_equilibrium", ("pinch", "contact line", "vanished", "ener
                             "no facets", "mesh")))
 
 ATTRS = {
-    "d12": dict(units="1", long_name="gap between the surfaces of grains 1 and 2, d*/r"),
-    "d13": dict(units="1", long_name="gap between the surfaces of grains 1 and 3, d*/r"),
-    "d23": dict(units="1", long_name="gap between the surfaces of grains 2 and 3, d*/r"),
     "theta": dict(units="degree", long_name="contact angle on the three grains"),
     "v": dict(units="1", long_name="volume ratio v = V*/V*_coal (total liquid volume over "
                                    "the coalescence volume of the separate bridges)"),
@@ -95,12 +92,6 @@ ATTRS = {
                              "NaN where no separated state exists"),
     "force": dict(units="1", long_name="force of the liquid on each grain F* = F/(2 pi "
                                        "gamma r), Richardson-extrapolated virtual work"),
-    "f12": dict(units="1", long_name="effective pair force between grains 1 and 2 along "
-                                     "their centre line, F*, attraction > 0"),
-    "f13": dict(units="1", long_name="effective pair force between grains 1 and 3 along "
-                                     "their centre line, F*, attraction > 0"),
-    "f23": dict(units="1", long_name="effective pair force between grains 2 and 3 along "
-                                     "their centre line, F*, attraction > 0"),
     "pair_residual": dict(units="1", long_name="residual |A f - F| / max|F_i| of the pair "
                                                "force decomposition"),
     "pressure": dict(units="1", long_name="capillary pressure P* = (p_liquid - p_gas) "
@@ -123,6 +114,11 @@ ATTRS = {
     "n_facets": dict(units="1", long_name="facets of the finest mesh"),
     "cpu_time": dict(units="s", long_name="Surface Evolver CPU time of the point"),
 }
+for (_i, _j), _f in zip(PAIRS, PAIR_NAMES):
+    ATTRS[f"d{_i + 1}{_j + 1}"] = dict(units="1", long_name=f"gap between the surfaces of "
+                                       f"grains {_i + 1} and {_j + 1}, d*/r")
+    ATTRS[_f] = dict(units="1", long_name=f"effective pair force between grains {_i + 1} and "
+                                          f"{_j + 1} along their centre line, F*, attraction > 0")
 
 
 @dataclasses.dataclass(frozen=True)
