@@ -60,7 +60,7 @@ def _path(sur):
     return [0.5, g01_end, g], 1.5 * hi
 
 
-def _run(sur, v, triplet_forces="default", steps=(150, 20, 100, 10), extra=()):
+def _run(sur, v, triplet_forces="on", steps=(150, 20, 100, 10), extra=()):
     """The closing scene with two bridges of v V*_coal / 2 each (V*_coal at the end of
     the closing path)."""
     gaps, pull = _path(sur)

@@ -65,7 +65,7 @@ that liquid (``removed_volume``).
 Coalescence: every ``coalescence_every`` steps, if some grain holds two bridges, the
 geometric criterion (:mod:`capbridge.dem_plugin.coalescence_detect`) is applied; merged
 bridges are reported in :meth:`CapbridgeEngine.state` and in a log line whenever their
-number changes.  With ``triplet_forces`` (default: on when the triplet table exists) a
+number changes.  With ``triplet_forces=True`` (opt-in) a
 coalesced triplet becomes one liquid cluster whose three grains get the triplet table's
 pair forces instead of its bridges' doublet forces, until it splits back into bridges
 at equal pressure (:mod:`capbridge.dem_plugin.triplet_clusters` has the rule; clusters
@@ -150,10 +150,10 @@ ENGINE_PARAMETERS = {
                              "YADE, forces off by up to that fraction"),
     "coalescence": (True, "detect coalesced bridges (reported; with triplet_forces their "
                           "triplets get the triplet table's forces)"),
-    "triplet_forces": (None, "coalesced triplets get the triplet table's pair forces "
-                             "instead of their bridges' doublet forces (True / False; "
-                             "default True when the triplet table exists; False: report "
-                             "only)"),
+    "triplet_forces": (False, "coalesced triplets get the triplet table's pair forces "
+                              "instead of their bridges' doublet forces (True; opt-in: in "
+                              "a settling packing clusters still merge and split at "
+                              "almost every check, see docs) or False: report only"),
     "triplet_table": (None, "triplet table (path); default the shipped "
                             "data/triplet_table.nc, read at the first coalesced triplet"),
     "triplet_split": ("table", "how a split cluster shares its liquid: 'table' (equal "
@@ -330,7 +330,7 @@ class CapbridgeEngine:
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
-                 label="capbridge", triplet_forces=None, triplet_table=None, walls=False,
+                 label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
                  triplet_split="table"):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
@@ -857,8 +857,9 @@ class CapbridgeEngine:
 
     # ---------------------------------------------------------------- coalesced triplets
     def _init_triplets(self, triplet_forces, triplet_table):
-        """Triplet forces on when asked, or by default when the table exists (only its
-        existence is checked here: it is read at the first coalesced triplet)."""
+        """Triplet forces on when asked (only the table's existence is checked here: it
+        is read at the first coalesced triplet).  ``None`` means on if the table exists
+        (kept for scenes saved with that default)."""
         from capbridge.surrogate.triplet import default_table
 
         path = Path(triplet_table) if triplet_table is not None else default_table()
