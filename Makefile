@@ -51,11 +51,11 @@ reproduce: setup
 
 # Regenerates the shipped tables (resumable: rerun after a kill to continue).  The
 # doublet and coalescence tables take minutes; the triplet table hours of Surface Evolver
-# (its checkpoints in .sweep-checkpoints/triplet are reused point by point).
+# (its committed checkpoints in sweeps/triplet are reused point by point).
 data: setup
 	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
 	$(VENV)/bin/capbridge generate coalescence --checkpoint-dir .sweep-checkpoints/triplet_coalescence
-	$(VENV)/bin/capbridge generate triplet --jobs 2 --holdout 12 --checkpoint-dir .sweep-checkpoints/triplet
+	$(VENV)/bin/capbridge generate triplet --jobs 2 --holdout 12 --checkpoint-dir sweeps/triplet
 
 clean:
 	rm -rf out .sweep-checkpoints
