@@ -407,19 +407,25 @@ def sphere_wall_table(theta_s, theta_w, volumes, n_s=25):
     rup_ok = rup["status"] == Status.CONVERGED
     gap = np.where(rup_ok, d_r, 0.0)[:, None] * (1.0 - s**2)
     inner = s > 0
-    res = solve_sphere_wall(gap[:, inner], volumes[:, None], theta_s, theta_w)
     shape = (volumes.size, s.size)
     status = np.full(shape, int(Status.NOT_CONVERGED), np.int8)
-    status[:, inner] = np.where(rup_ok[:, None], res["status"], Status.NOT_CONVERGED)
+    full = {name: np.full(shape, np.nan) for name in OUTPUTS}
+    # only volumes whose rupture distance was found: the others have no gap axis (they
+    # stay NOT_CONVERGED), and nothing is solved at a placeholder gap
+    rows = np.flatnonzero(rup_ok)
+    if rows.size:
+        cells = np.ix_(rows, np.flatnonzero(inner))
+        res = solve_sphere_wall(gap[cells], volumes[rows, None], theta_s, theta_w)
+        status[cells] = res["status"]
+        for name in OUTPUTS:
+            full[name][cells] = res[name]
     # s = 0 is the rupture point itself: the end state of the family walk
     status[:, ~inner] = np.where(rup_ok, Status.CONVERGED, Status.NOT_CONVERGED)[:, None]
     ok = status == Status.CONVERGED
     data = {}
     for name in OUTPUTS:
-        full = np.empty(shape)
-        full[:, inner] = res[name]
-        full[:, ~inner] = rup[name][:, None]
-        data[name] = np.where(ok, full, np.nan)
+        full[name][:, ~inner] = rup[name][:, None]
+        data[name] = np.where(ok, full[name], np.nan)
     dims = ("volume", "s")
     return xr.Dataset(
         {name: (dims, data[name], ATTRS[name]) for name in OUTPUTS}
