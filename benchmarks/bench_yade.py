@@ -70,6 +70,22 @@ def _yade_env():
     return yade, wrapper, utils
 
 
+def _deposit(O, w, utils, max_steps):
+    """Dry settling under gravity in a box (the packings' common engines and stop rule:
+    unbalanced force < 0.05 after 5,000 steps, or max_steps); returns the spheres."""
+    O.engines = [w.ForceResetter(), w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
+                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
+                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
+                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
+                 w.NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
+    O.dt = 0.5 * utils.PWaveTimeStep()
+    while O.iter < max_steps:
+        O.run(500, True)
+        if O.iter > 5000 and utils.unbalancedForce() < 0.05:
+            break
+    return [b for b in O.bodies if isinstance(b.shape, w.Sphere)]
+
+
 def make_packing(n, out, max_steps=25000):
     """Dry deposition of n spheres (half 0.9 mm, half 1.125 mm) in a box; saves positions."""
     yade, w, utils = _yade_env()
@@ -87,18 +103,8 @@ def make_packing(n, out, max_steps=25000):
     sp.toSimulation(material=mat)
     if len(sp) != n:
         raise RuntimeError(f"makeCloud placed {len(sp)} of {n} spheres")
-    O.engines = [w.ForceResetter(), w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
-                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
-                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
-                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
-                 w.NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
-    O.dt = 0.5 * utils.PWaveTimeStep()
     t0 = time.time()
-    while O.iter < max_steps:
-        O.run(500, True)
-        if O.iter > 5000 and utils.unbalancedForce() < 0.05:
-            break
-    sph = [b for b in O.bodies if isinstance(b.shape, w.Sphere)]
+    sph = _deposit(O, w, utils, max_steps)
     pos = np.array([tuple(b.state.pos) for b in sph])
     rad = np.array([b.shape.radius for b in sph])
     np.savez(out, pos=pos, rad=rad, side=side, iters=O.iter, seconds=time.time() - t0,
@@ -120,18 +126,8 @@ def make_poly_packing(n, out, max_steps=20000, r_mean=1e-3, fuzz=0.3):
     mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
     O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 2.5 * side)], thickness=0, material=mat))
     sp.toSimulation(material=mat)
-    O.engines = [w.ForceResetter(), w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
-                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
-                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
-                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
-                 w.NewtonIntegrator(damping=0.6, gravity=(0, 0, -9.81))]
-    O.dt = 0.5 * utils.PWaveTimeStep()
     t0 = time.time()
-    while O.iter < max_steps:
-        O.run(500, True)
-        if O.iter > 5000 and utils.unbalancedForce() < 0.05:
-            break
-    sph = [b for b in O.bodies if isinstance(b.shape, w.Sphere)]
+    sph = _deposit(O, w, utils, max_steps)
     np.savez(out, pos=np.array([tuple(b.state.pos) for b in sph]),
              rad=np.array([b.shape.radius for b in sph]), side=side, height=2.5 * side,
              iters=O.iter, seconds=time.time() - t0, unbalanced=utils.unbalancedForce())
