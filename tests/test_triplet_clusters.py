@@ -353,3 +353,15 @@ def test_engine_options_of_triplet_forces():
                           label="h7_default")
     assert eng.triplet_forces is False and eng.triplet_report() == {
         "enabled": False, "table_loaded": False, "clusters": 0}
+
+
+def test_engine_refuses_a_damaged_triplet_table_at_construction(tmp_path):
+    """A damaged triplet table is one clear error when the engine is made, not a
+    TableError traceback from the PyRunner at the first coalesced triplet."""
+    from capbridge.dem_plugin.engine import CapbridgeEngine
+
+    bad = tmp_path / "triplet_table.nc"
+    bad.write_text("not a table")
+    with pytest.raises(CapbridgeInputError, match="triplet_forces=True but"):
+        CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True,
+                        triplet_table=bad, label="h7_damaged")

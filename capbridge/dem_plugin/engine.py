@@ -857,8 +857,8 @@ class CapbridgeEngine:
 
     # ---------------------------------------------------------------- coalesced triplets
     def _init_triplets(self, triplet_forces, triplet_table):
-        """Triplet forces on when asked (only the table's existence is checked here: it
-        is read at the first coalesced triplet).  ``None`` means on if the table exists
+        """Triplet forces on when asked (the table is checked here; it is fitted at the
+        first coalesced triplet).  ``None`` means on if the table exists
         (kept for scenes saved with that default)."""
         from capbridge.surrogate.triplet import default_table
 
@@ -872,6 +872,17 @@ class CapbridgeEngine:
         if triplet_forces and not self.coalescence:
             raise CapbridgeInputError("triplet_forces=True needs coalescence=True (the "
                                       "detector finds the triplets)")
+        if triplet_forces:
+            # check the table now: a damaged one would otherwise surface as a TableError
+            # traceback from the PyRunner at the first coalesced triplet
+            from capbridge.generator.netcdf_io import TableError
+            from capbridge.surrogate.triplet import TripletSurrogate
+            try:
+                TripletSurrogate._load(path)
+            except TableError as exc:
+                raise CapbridgeInputError(f"triplet_forces=True but {exc}: give a valid "
+                                          "triplet_table=... or triplet_forces=False"
+                                          ) from exc
         self.triplet_forces = bool(triplet_forces)
         self.triplet_table = path
         self.clusters = None              # made at the first coalesced triplet
