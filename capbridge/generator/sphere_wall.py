@@ -332,6 +332,20 @@ def solve_sphere_wall(gap, volume, theta_s, theta_w=None, settings=None):
     return _finish(out, shape)
 
 
+def _walk_from_contact(gap, volume, theta_s, theta_w, settings=None):
+    """(status, results) of points (1-D) solved by the safe path only: the walk along
+    the fixed-volume family from contact (no direct or predictor-corrector solve)."""
+    settings = settings or yl.SolverSettings()
+    (g, v), pts, shape = _make_points([gap, volume], theta_s, theta_w)
+    pts.gap, pts.volume = g, v
+    out = yl._result_arrays(g.size)
+    x_c, ok_c = _contact_state(pts, settings)
+    yl._solve_on_family(yl._Problem(pts, False, settings, False), x_c, ok_c, out,
+                        np.arange(g.size))
+    res = _finish(out, shape)
+    return res["status"], res
+
+
 def sphere_wall_rupture_distance(volume, theta_s, theta_w=None, settings=None):
     """Rupture distance d*_rupt(V*) of a sphere-wall bridge: the fold of the gap along
     the fixed-volume family (the end of the stable branch).
@@ -391,7 +405,9 @@ def sphere_wall_table(theta_s, theta_w, volumes, n_s=25):
     xarray.Dataset with dims (volume, s): force, pressure, beta1, wall_radius,
     neck_radius, gap, status; rupture_gap, rupture_force, rupture_status on (volume,);
     scalar coordinates theta_s, theta_w.  Points that did not converge are NaN with
-    their status, never a silent number.
+    their status, never a silent number.  A point whose direct solve ends with F* at or
+    below F*_rupt (the near-rupture branch jump, e.g. V* ~ 0.06 at (20, 40) deg) is
+    solved again by the walk from contact.
     """
     if np.ndim(theta_s) or np.ndim(theta_w):
         raise CapbridgeInputError(f"a table slice has one (theta_s, theta_w) pair, got "
@@ -419,6 +435,14 @@ def sphere_wall_table(theta_s, theta_w, volumes, n_s=25):
         status[cells] = res["status"]
         for name in OUTPUTS:
             full[name][cells] = res[name]
+        # F* falls to F*_rupt along the stable branch: a force at or below it is the
+        # near-rupture branch jump of the direct solve; those points take the safe path
+        jump = (status == Status.CONVERGED) & inner & (full["force"] <= rup["force"][:, None])
+        if jump.any():
+            i, j = np.nonzero(jump)
+            status[i, j], walked = _walk_from_contact(gap[i, j], volumes[i], theta_s, theta_w)
+            for name in OUTPUTS:
+                full[name][i, j] = walked[name]
     # s = 0 is the rupture point itself: the end state of the family walk
     status[:, ~inner] = np.where(rup_ok, Status.CONVERGED, Status.NOT_CONVERGED)[:, None]
     ok = status == Status.CONVERGED
