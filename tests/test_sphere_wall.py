@@ -256,3 +256,14 @@ def test_table_slice():
         sphere_wall_table(30.0, 60.0, [0.1, 0.01])
     with pytest.raises(CapbridgeInputError, match="one .theta_s, theta_w. pair"):
         sphere_wall_table([0.0, 30.0], 60.0, vols)
+
+
+def test_table_slice_near_rupture_branch_jump_resolved():
+    """At (20, 40) deg and V* ~ 0.06 the direct near-rupture solve jumped branches
+    (F* below F*_rupt at s ~ 0.1); the slice re-solves such points by the family walk,
+    so F* rises monotonically from rupture to contact."""
+    ds = sphere_wall_table(20.0, 40.0, [0.06, 0.063])
+    assert np.all(ds["status"].values == CONVERGED)
+    f = ds["force"].values
+    assert np.all(np.diff(f, axis=1) > 0)
+    assert np.all(f[:, 1:] > ds["rupture_force"].values[:, None])
