@@ -211,6 +211,21 @@ def two_fixed_spheres(r1, r2, gap, ip2, contact_law, capillary, *, detection=2.0
     return b0, b1
 
 
+def box_engines(capillary, damping=0.3, gravity=(0, 0, -9.81)):
+    """The engines of the test packings in a box of ``Box`` bodies (call after YADE is
+    imported): collider, sphere-sphere and box-sphere contacts with the Cundall-Strack
+    law, the ``capillary`` engine (e.g. ``cap.pyrunner()``), then ``NewtonIntegrator``
+    with ``damping`` and ``gravity``."""
+    from yade import wrapper as w
+    return [w.ForceResetter(),
+            w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
+            w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
+                              [w.Ip2_FrictMat_FrictMat_FrictPhys()],
+                              [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
+            capillary,
+            w.NewtonIntegrator(damping=damping, gravity=gravity)]
+
+
 def _json_default(o):
     try:
         import numpy as np

@@ -91,14 +91,7 @@ ids = sp.toSimulation(material=glass)
 perm_id = ids[0]
 cap = CapbridgeEngine(theta={"glass": 20.0}, gamma=0.073, water_content=0.01,
                       force_tolerance=cfg.tolerance, refresh_every=cfg.refresh, label="pile")
-O.engines = [
-    ForceResetter(),
-    InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
-    InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Box_Sphere_ScGeom()],
-                    [Ip2_FrictMat_FrictMat_FrictPhys()], [Law2_ScGeom_FrictPhys_CundallStrack()]),
-    cap.pyrunner(),
-    NewtonIntegrator(damping=0.3, gravity=(0, 0, -9.81)),
-]
+O.engines = yade_runtime.box_engines(cap.pyrunner())
 O.dt = 0.5 * utils.PWaveTimeStep()
 O.forces.setPermF(perm_id, PERM)
 # an extra part of the engine's state (as liquid clusters will be): saved and restored

@@ -43,13 +43,7 @@ walls = O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 1.6 * side)], t
 sp.toSimulation(material=mat)
 cap = CapbridgeEngine(theta={"glass": 20.0}, water_content=cfg.water_content,
                       walls=bool(cfg.walls), coalescence_every=500, label="bench")
-O.engines = [ForceResetter(),
-             InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
-             InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Box_Sphere_ScGeom()],
-                             [Ip2_FrictMat_FrictMat_FrictPhys()],
-                             [Law2_ScGeom_FrictPhys_CundallStrack()]),
-             cap.pyrunner(),
-             NewtonIntegrator(damping=0.3, gravity=(0, 0, -9.81))]
+O.engines = yade_runtime.box_engines(cap.pyrunner())
 O.dt = 0.5 * utils.PWaveTimeStep()
 O.run(cfg.settle, True)
 cap.timings.update(steps=0, seconds=0.0, cpu_seconds=0.0)
