@@ -642,6 +642,26 @@ class BridgeModel:
         self.born = np.concatenate([self.born, np.full(i.size, step, np.intp)])
         self.held = np.vstack([self.held, np.zeros((i.size, 3))])
 
+    def set_volumes(self, rows, volumes):
+        """Give bridges ``rows`` new volumes [m^3] (their force profile and rupture gap
+        follow), keeping their birth step and held force.  The bridges move to the end of
+        the arrays; the ledger is not touched (the caller keeps the total volume) and no
+        grain is listed as having lost a bridge."""
+        rows = np.asarray(rows, np.intp)
+        if rows.size == 0:
+            return
+        i, j = self.bi[rows].copy(), self.bj[rows].copy()
+        born, held = self.born[rows].copy(), self.held[rows].copy()
+        mask = np.zeros(self.n_bridges, bool)
+        mask[rows] = True
+        touched = self._touched.copy()
+        self._remove(mask)
+        self._touched = touched            # no bridge was lost: no grain to re-list
+        n0 = self.n_bridges
+        self._add(i, j, np.asarray(volumes, float), 0)
+        self.born[n0:] = born
+        self.held[n0:] = held
+
     def _remove(self, mask):
         keep = ~mask
         gone = self.cidx[mask]

@@ -241,24 +241,8 @@ def load_surrogate(table=None, coalescence_table=None):
 
 def set_bridge_volumes(model, rows, volumes):
     """Give bridges ``rows`` of a :class:`~capbridge.dem_plugin.bridges.BridgeModel` new
-    volumes [m^3] (their force profile and rupture gap follow), keeping their birth step
-    and held force.  The bridges move to the end of the model's arrays; the ledger is not
-    touched (the caller keeps the total volume).  Uses the model's own ``_remove`` /
-    ``_add``, the only way a bridge gets its volume-dependent constants."""
-    rows = np.asarray(rows, np.intp)
-    if rows.size == 0:
-        return
-    i, j = model.bi[rows].copy(), model.bj[rows].copy()
-    born, held = model.born[rows].copy(), model.held[rows].copy()
-    mask = np.zeros(model.n_bridges, bool)
-    mask[rows] = True
-    touched = model._touched.copy()
-    model._remove(mask)
-    model._touched = touched            # no bridge was lost: no grain to re-list
-    n0 = model.n_bridges
-    model._add(i, j, np.asarray(volumes, float), 0)
-    model.born[n0:] = born
-    model.held[n0:] = held
+    volumes [m^3]: :meth:`BridgeModel.set_volumes` (kept as a function for callers)."""
+    model.set_volumes(rows, volumes)
 
 
 class LiquidClusters:
@@ -562,7 +546,7 @@ class LiquidClusters:
             if vols is None:
                 self.events["split_share_fallback"] += 1
             else:
-                set_bridge_volumes(model, rows, vols)
+                model.set_volumes(rows, vols)
                 changed = True
         self._remove(np.isin(np.arange(self.n), which))
         self.timings["split_seconds"] += time.perf_counter() - t0
