@@ -77,14 +77,7 @@ if cfg.rule == "native":
         NewtonIntegrator(damping=0.3, gravity=(0, 0, -9.81)),
     ]
 else:
-    O.engines = [
-        ForceResetter(),
-        InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
-        InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Box_Sphere_ScGeom()],
-                        [Ip2_FrictMat_FrictMat_FrictPhys()], [Law2_ScGeom_FrictPhys_CundallStrack()]),
-        cap.pyrunner(),
-        NewtonIntegrator(damping=0.3, gravity=(0, 0, -9.81)),
-    ]
+    O.engines = yade_runtime.box_engines(cap.pyrunner())
 O.dt = 0.5 * utils.PWaveTimeStep()
 
 
