@@ -133,6 +133,19 @@ def make_poly_packing(n, out, max_steps=20000, r_mean=1e-3, fuzz=0.3):
              iters=O.iter, seconds=time.time() - t0, unbalanced=utils.unbalancedForce())
 
 
+def load_packing(O, w, utils, packing):
+    """A saved packing (``make_packing`` / ``make_poly_packing``) into the scene: its box
+    (height recorded, else 2.2 x side) and spheres, one ``FrictMat``; returns the file."""
+    d = np.load(packing)
+    side = float(d["side"])
+    height = float(d["height"]) if "height" in d.files else 2.2 * side
+    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
+    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, height)], thickness=0, material=mat))
+    for p, r in zip(d["pos"], d["rad"]):
+        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    return d
+
+
 def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
     """Issue 9's benchmark, one variant (``law2`` or ``capbridge``); prints the result."""
     yade, w, utils = _yade_env()
@@ -140,12 +153,7 @@ def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
     from capbridge.dem_plugin.engine import CapbridgeEngine
 
     O = yade.Omega()
-    d = np.load(packing)
-    side, height = float(d["side"]), float(d["height"])
-    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
-    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, height)], thickness=0, material=mat))
-    for p, r in zip(d["pos"], d["rad"]):
-        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    d = load_packing(O, w, utils, packing)
     f, cap = 1.0, None
     ip2, law = w.Ip2_FrictMat_FrictMat_FrictPhys(), w.Law2_ScGeom_FrictPhys_CundallStrack()
     if variant == "law2":
@@ -220,12 +228,7 @@ def run_variant(variant, packing, files, steps, warmup, suction, factor):
     from capbridge.dem_plugin.engine import CapbridgeEngine
 
     O = yade.Omega()
-    d = np.load(packing)
-    side = float(d["side"])
-    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
-    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, 2.2 * side)], thickness=0, material=mat))
-    for p, r in zip(d["pos"], d["rad"]):
-        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    d = load_packing(O, w, utils, packing)
     f = 1.0
     extra = []
     cap = None

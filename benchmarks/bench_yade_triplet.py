@@ -56,12 +56,7 @@ def run_capbridge(variant, packing, steps, warmup, water_content, table, every):
     from capbridge.dem_plugin.engine import CapbridgeEngine
 
     O = yade.Omega()
-    d = np.load(packing)
-    side, height = float(d["side"]), float(d["height"])
-    mat = O.materials.append(w.FrictMat(young=1e7, poisson=0.3, density=2600, frictionAngle=0.3))
-    O.bodies.append(utils.aabbWalls([(0, 0, 0), (side, side, height)], thickness=0, material=mat))
-    for p, r in zip(d["pos"], d["rad"]):
-        O.bodies.append(utils.sphere(tuple(p), float(r), material=mat))
+    d = by.load_packing(O, w, utils, packing)
     cap = CapbridgeEngine(theta=THETA, gamma=by.GAMMA, water_content=water_content,
                           coalescence_every=every, triplet_forces=(variant == "on"),
                           triplet_table=table, label="bench")
