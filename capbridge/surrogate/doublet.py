@@ -74,13 +74,10 @@ class DoubletSurrogate:
     refine : int
         Fine-grid nodes per coarse interval along log V* and s (default 6).
     theta_step : float
-        Fine-grid spacing in theta [deg] (default 0.5).
-        Must not be coarser than the refinement with which the table's error model
-        was measured (checked by :meth:`fit`): a coarser grid would answer with a
-        larger error than the table states.
-    theta_step : float
-        Fine-grid spacing in theta [deg] (default 0.5); at most the spacing of the
-        error model, at least 0.1.
+        Fine-grid spacing in theta [deg] (default 0.5), at least 0.1.
+        Neither it nor ``refine`` may be coarser than the refinement with which the
+        table's error model was measured (checked by :meth:`fit`): a coarser grid
+        would answer with a larger error than the table states.
     out_of_range : {"raise", "clip"}
         Behaviour for V* outside the table: ``"raise"`` (default) a CapbridgeInputError
         naming the value and the table's range; ``"clip"`` answers at the nearest
