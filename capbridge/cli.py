@@ -126,8 +126,6 @@ def cmd_generate_doublet(args):
                                                    save_doublet_table)
     from capbridge.surrogate.doublet import DoubletSurrogate, holdout_errors
 
-    import shlex
-
     from capbridge.generator.netcdf_io import check_table_target
     from capbridge.surrogate.doublet import DEFAULT_REFINE, DEFAULT_THETA_STEP
 
@@ -136,9 +134,7 @@ def cmd_generate_doublet(args):
     # before hours of work: can the table be written, and would it replace another grid?
     check_table_target(args.output, {k: list(v) for k, v in grid.as_dict().items()},
                        overwrite=args.overwrite, flag="--overwrite")
-    words = getattr(args, "argv", sys.argv[1:])
-    command = ("capbridge " + " ".join(shlex.quote(w) for w in words)
-               if args.command is None else args.command)
+    command = args.command or _command_line(args)
     ds = build_doublet_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                              scheduler=args.scheduler, progress=not args.no_progress,
                              command=command, worker_timeout=args.worker_timeout)
@@ -151,10 +147,7 @@ def cmd_generate_doublet(args):
     checks += [(float(x), HOLDOUT_BAND) for x in np.sort(np.concatenate([r, between]))]
     for ratio, band in checks:
         h = holdout_errors(sur, n=args.holdout, seed=1, ratio=ratio, exclude_band=band)
-        tag = f"ratio{ratio:.4g}_band{band:g}"
-        ds.attrs[f"holdout_median_rel_error_force_{tag}"] = h["median_rel_error"]
-        ds.attrs[f"holdout_max_rel_error_force_{tag}"] = h["max_rel_error"]
-        ds.attrs[f"holdout_n_{tag}"] = h["n"]
+        _holdout_attrs(ds.attrs, h, "force", f"ratio{ratio:.4g}_band{band:g}")
     ds.attrs["holdout_description"] = (
         "relative error of the surrogate force against the exact solver at random points "
         "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
@@ -248,6 +241,15 @@ def _info_generic(ds, path):
         if "error" in k and not isinstance(v, str) or k.startswith("interpolation_error"):
             print(f"    {k}: {v}")
     return 0
+
+
+def _holdout_attrs(attrs, h, quantity, tag):
+    """Write one holdout check (median, max relative error of ``quantity``, n) as
+    table attributes ``holdout_{median,max}_rel_error_{quantity}_{tag}``,
+    ``holdout_n_{tag}``."""
+    attrs[f"holdout_median_rel_error_{quantity}_{tag}"] = h["median_rel_error"]
+    attrs[f"holdout_max_rel_error_{quantity}_{tag}"] = h["max_rel_error"]
+    attrs[f"holdout_n_{tag}"] = h["n"]
 
 
 def _command_line(args):
@@ -349,10 +351,7 @@ def cmd_generate_triplet(args):
     if args.holdout:
         sur = TripletSurrogate().fit(ds, coalescence_table=coal)
         for by in ("volume", "v"):
-            h = holdout_errors(sur, by=by)
-            ds.attrs[f"holdout_median_rel_error_pair_force_by_{by}"] = h["median_rel_error"]
-            ds.attrs[f"holdout_max_rel_error_pair_force_by_{by}"] = h["max_rel_error"]
-            ds.attrs[f"holdout_n_by_{by}"] = h["n"]
+            _holdout_attrs(ds.attrs, holdout_errors(sur, by=by), "pair_force", f"by_{by}")
         ds.attrs["holdout_description"] = (
             "relative error of the surrogate's pair forces f12, f13, f23 (cubic refinement, "
             "default settings) against held-out Surface Evolver points one refinement level "
