@@ -331,6 +331,7 @@ def cmd_solve_triplet(args):
 
 def cmd_generate_triplet(args):
     from capbridge.generator.netcdf_io import check_table_target
+    from capbridge.generator.triplet_gravity import GravityPlan
     from capbridge.generator.triplet_table import (TripletGrid, build_triplet_table,
                                                    save_triplet_table)
     from capbridge.surrogate.triplet import TripletSurrogate, holdout_errors
@@ -344,7 +345,8 @@ def cmd_generate_triplet(args):
     command = args.command or _command_line(args)
     ds = build_triplet_table(grid, n_holdout=args.holdout, checkpoint_dir=args.checkpoint_dir,
                              n_jobs=args.jobs, scheduler=args.scheduler,
-                             progress=not args.no_progress, command=command)
+                             progress=not args.no_progress, command=command,
+                             gravity=GravityPlan.shipped(args.quick))
     coal = args.coalescence_table
     if coal is None and DEFAULT_COALESCENCE_TABLE.exists() and not args.quick:
         coal = DEFAULT_COALESCENCE_TABLE

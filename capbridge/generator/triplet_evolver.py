@@ -55,7 +55,8 @@ def _settings(max_refine, tol, keep, **kw):
     from capbridge.generator.evolver.checks import Tolerances
 
     kw.setdefault("tolerances", Tolerances(cap_gap_edges=CAP_GAP_EDGES))
-    s = Settings(ftol=tol, max_refine=max_refine, min_refine=min(2, max_refine), **kw)
+    kw.setdefault("min_refine", min(2, max_refine))
+    s = Settings(ftol=tol, max_refine=max_refine, **kw)
     if keep:
         s = dataclasses.replace(s, keep_files=True)
     return s
@@ -178,8 +179,10 @@ def lower_meniscus_height(snap, half_width=0.05):
 
 def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
                     bridges=((0, 1), (0, 2)), fractions=None, bond=0.0, max_refine=3,
-                    tol=3e-3, inspect_mesh=None, retry_rings=(8, 12, 16), **settings):
-    """One Surface Evolver minimisation on the triplet ``geom`` (gravity along -z).
+                    tol=3e-3, inspect_mesh=None, retry_rings=(8, 12, 16),
+                    gravity_dir=(0.0, 0.0, -1.0), **settings):
+    """One Surface Evolver minimisation on the triplet ``geom`` (gravity along
+    ``gravity_dir``, a unit vector in the frame of ``geom``; default -z, the paper's).
 
     ``volume`` is the total V*; for ``topology="bridges"`` it is shared between
     ``bridges`` by ``fractions`` (equal by default).  ``theta`` in degrees (one value or
@@ -223,7 +226,8 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
         kw = dict(settings, n_ring=n_ring)
         s = _settings(max_refine, tol, measure, **kw)
         res = minimise_bridge(geom.centres, 1.0, t, vol, topology=topology, pairs=pairs,
-                              bond=float(bond), gravity_dir=(0.0, 0.0, -1.0), settings=s)
+                              bond=float(bond), gravity_dir=tuple(map(float, gravity_dir)),
+                              settings=s)
         wall += res.wall_time
         cpu += res.cpu_time
         attempts.append({"n_ring": n_ring, "status": res.status.name.lower(),

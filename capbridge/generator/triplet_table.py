@@ -48,7 +48,10 @@ import xarray as xr
 from capbridge.dimensionless import canonical_triplet
 from capbridge.generator.netcdf_io import write_table
 from capbridge.generator.sweep import run_sweep
-from capbridge.status import Status, cf_flag_attributes
+from capbridge.generator.triplet_gravity import (GravityPlan, gravity_chunk,
+                                                 gravity_holdout_chunk,
+                                                 rotate_gravity_tensor, stack_tensors)
+from capbridge.status import HAS_RESULT, Status, cf_flag_attributes
 
 __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_table",
            "reference_chunk", "separated_chunk", "coalesced_chunk", "FAILURE_KINDS", "failure_kind"]
@@ -176,6 +179,24 @@ class EvolverPlan:
                                    total_timeout=4 * self.total_timeout)
 
 
+GRAVITY_ATTRS = {
+    "force_gravity_gradient": dict(units="1", long_name="first-order response of the force "
+                                   "on each grain to gravity, dF*_i/db_k with b = Bo g_hat "
+                                   "(central differences at Bo = bond_step)"),
+    "force_gravity_curvature": dict(units="1", long_name="diagonal second-order response "
+                                    "d2F*_i/db_k2 (F(b) = F(0) + G b + C b^2 / 2 per "
+                                    "component of b; mixed terms not computed)"),
+    "gravity_sum_residual": dict(units="1", long_name="residual of the sum rule sum_i "
+                                 "dF_i/db = V*/(2 pi) (the grains carry the weight), "
+                                 "relative to V*/(2 pi)"),
+    "gravity_cpu_time": dict(units="s", long_name="Surface Evolver CPU time of the gravity "
+                                                  "response of the point"),
+    "bond": dict(units="1", long_name="Bond number Bo = drho g r^2 / gamma"),
+    "direction": dict(units="1", long_name="unit vector along which gravity pulls, table "
+                                           "frame"),
+}
+
+
 def failure_kind(status, reason):
     """Code of :data:`FAILURE_KINDS` for an Evolver result's status and reason."""
     if status != Status.NOT_CONVERGED:
@@ -301,7 +322,11 @@ def _expand_to_cube(grid, canon, values):
                 for name, v in values.items():
                     if name in PAIR_NAMES:
                         continue
-                    if name == "force":
+                    if name.startswith("force_gravity"):
+                        Q = _frame_rotation(triplet_geometry(*srt).centres[inv],
+                                            triplet_geometry(*gaps).centres)
+                        out[name][a, b, c] = rotate_gravity_tensor(v[k][..., inv, :, :], Q)
+                    elif name == "force":
                         Fc = v[k]                      # (..., grain, component)
                         Q = _frame_rotation(triplet_geometry(*srt).centres[inv],
                                             triplet_geometry(*gaps).centres)
@@ -311,6 +336,8 @@ def _expand_to_cube(grid, canon, values):
                     else:
                         out[name][a, b, c] = v[k]
                 for (i, j), name in zip(PAIRS, PAIR_NAMES):
+                    if name not in values:
+                        continue
                     p, q = sorted((inv[i], inv[j]))
                     out[name][a, b, c] = values[PAIR_NAMES[PAIRS.index((p, q))]][k]
     return out
@@ -328,13 +355,17 @@ def _holdout_points(grid, n, seed):
 def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
                         n_holdout=0, checkpoint_dir=None, n_jobs=None, scheduler=None,
                         progress=True, command=None, seed=1,
-                        exact_only=False) -> xr.Dataset | None:
+                        exact_only=False, gravity: GravityPlan | None = None
+                        ) -> xr.Dataset | None:
     """Run the sweep (resumable) and return the table as a labelled Dataset.
 
     Phases: exact coalescence volumes of the canonical geometries; the coalesced body
     at every canonical (geometry, theta, v) point; ``n_holdout`` held-out points one
     level finer.  Each phase is its own checkpointed sweep; a phase with failed chunks
     stops the build (rerun to retry) instead of computing on placeholders.
+    ``gravity``: also the response of the forces to gravity on the liquid on the
+    plan's sub-grid of v, and its held-out checks against direct minimisations with
+    gravity (:mod:`capbridge.generator.triplet_gravity`).
     ``exact_only``: run the exact phases (coalescence volumes, separated-state
     energies) into the checkpoints and return None, e.g. beside a running Evolver
     sweep on the same checkpoint directory.
@@ -404,6 +435,8 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     ds = xr.Dataset(data, coords=coords)
     if n_holdout:
         ds = ds.merge(_holdout_dataset(grid, plan.finer(), n_holdout, seed, phase))
+    if gravity is not None:
+        ds = ds.merge(_gravity_dataset(grid, gravity, canon, vref, per["status"], phase))
     ds.attrs.update({
         "title": "capbridge coalesced-triplet capillary-force table (Surface Evolver, "
                  "three equal spheres, no gravity)",
@@ -442,6 +475,89 @@ def _holdout_dataset(grid, plan, n, seed, phase):
         units="1", long_name="held-out point (random canonical geometry, theta, v; "
                              f"Evolver level {plan.max_refine})"))})
     ds.attrs["holdout_evolver_settings"] = json.dumps(plan.settings())
+    return ds
+
+
+def _gravity_dataset(grid, gplan, canon, vref, status, phase):
+    """The gravity response on the sub-grid ``gplan.v`` (nodes of the table's v axis;
+    nodes where the table has no result are skipped) and its held-out checks."""
+    v_all = np.asarray(grid.v, float)
+    gv = np.asarray(gplan.v, float)
+    iv = [int(np.argmin(np.abs(v_all - x))) for x in gv]
+    if not np.allclose(v_all[iv], gv):
+        raise ValueError(f"gravity volume ratios {list(gv)} must be nodes of v {list(v_all)}")
+    theta = np.asarray(grid.theta, float)
+    nc, nt, nv = len(canon), theta.size, gv.size
+    ok = np.isin(status[:, :, iv], [int(s) for s in HAS_RESULT])
+    vol = np.where(ok, vref[..., None] * gv, np.nan)
+    Gp = np.repeat(canon, nt * nv, axis=0)
+    res = phase("gravity_response", functools.partial(gravity_chunk, plan=gplan),
+                {"d12": Gp[:, 0], "d13": Gp[:, 1], "d23": Gp[:, 2],
+                 "theta": np.tile(np.repeat(theta, nv), nc), "volume": vol.ravel()},
+                1, gplan.settings())
+    shape = (nc, nt, nv)
+    per = {"force_gravity_gradient": stack_tensors(res, "G", shape),
+           "force_gravity_curvature": stack_tensors(res, "C", shape),
+           "gravity_status": res["status"].reshape(shape),
+           "gravity_sum_residual": res["gravity_sum_residual"].reshape(shape),
+           "gravity_cpu_time": res["gravity_cpu_time"].reshape(shape)}
+    cube = _expand_to_cube(grid, canon, per)
+    dims = ("d12", "d13", "d23", "theta", "gravity_v")
+    tdims = dims + ("grain", "component", "gravity_component")
+    data = {name: (tdims if arr.ndim == 8 else dims, arr, GRAVITY_ATTRS[name])
+            for name, arr in cube.items() if name != "gravity_status"}
+    data["gravity_status"] = (dims, cube["gravity_status"].astype(np.int8),
+                              cf_flag_attributes())
+    coords = {"gravity_v": ("gravity_v", gv, ATTRS["v"] | {
+                  "long_name": "volume ratio v = V*/V*_coal of the gravity response"}),
+              "gravity_component": ("gravity_component", np.arange(3, dtype=np.int8), {
+                  "units": "1", "flag_meanings": "x y z",
+                  "long_name": "component of the gravity vector b = Bo g_hat in the "
+                               "table frame (g_hat: the direction gravity pulls)"})}
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs["gravity_settings"] = json.dumps(gplan.settings() | {"v": list(gv)})
+    return ds.merge(_gravity_holdout_dataset(gplan, phase))
+
+
+def _gravity_holdout_dataset(gplan, phase):
+    """Direct minimisations with gravity one level finer than the response, at the
+    cases of :data:`HOLDOUT_CASES` and the Bond numbers of :data:`HOLDOUT_BONDS`."""
+    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+
+    rows = []
+    for gaps, theta, v, _, direction in gplan.cases:
+        vc = find_coalescence(triplet_geometry(*gaps), theta).V_coal
+        rows += [(*gaps, theta, v, v * vc, bo, *direction) for bo in gplan.bonds]
+    a = np.array(rows, float)
+    fine = gplan.finer()
+    res = phase(f"gravity_holdout_level{fine.max_refine}",
+                functools.partial(gravity_holdout_chunk, plan=fine),
+                {"d12": a[:, 0], "d13": a[:, 1], "d23": a[:, 2], "theta": a[:, 3],
+                 "volume": a[:, 5], "bond": a[:, 6], "gx": a[:, 7], "gy": a[:, 8],
+                 "gz": a[:, 9]}, 1, fine.settings())
+    dim = ("gravity_holdout",)
+    F = np.stack([np.stack([res[f"force_{g + 1}{c}"] for c in COMPONENTS], -1)
+                  for g in range(3)], -2)
+    names = [case[3] for case in gplan.cases for _ in gplan.bonds]
+    hv = {"gravity_holdout_d12": (dim, a[:, 0], ATTRS["d12"]),
+          "gravity_holdout_d13": (dim, a[:, 1], ATTRS["d13"]),
+          "gravity_holdout_d23": (dim, a[:, 2], ATTRS["d23"]),
+          "gravity_holdout_theta": (dim, a[:, 3], ATTRS["theta"]),
+          "gravity_holdout_v": (dim, a[:, 4], ATTRS["v"]),
+          "gravity_holdout_volume": (dim, a[:, 5], ATTRS["volume"]),
+          "gravity_holdout_bond": (dim, a[:, 6], GRAVITY_ATTRS["bond"]),
+          "gravity_holdout_direction": (dim + ("component",), a[:, 7:10],
+                                        GRAVITY_ATTRS["direction"]),
+          "gravity_holdout_orientation": (dim, np.array(names, dtype=object), {
+              "long_name": "orientation of gravity in the held-out check"}),
+          "gravity_holdout_force": (dim + ("grain", "component"), F, ATTRS["force"] | {
+              "long_name": "force of the liquid on each grain with gravity, F*, direct "
+                           f"Evolver minimisation at level {fine.max_refine}"}),
+          "gravity_holdout_status": (dim, res["status"].astype(np.int8),
+                                     cf_flag_attributes())}
+    ds = xr.Dataset(hv, coords={"gravity_holdout": ("gravity_holdout", np.arange(len(a)), {
+        "units": "1", "long_name": "held-out check of the gravity response"})})
+    ds.attrs["gravity_holdout_settings"] = json.dumps(fine.settings())
     return ds
 
 
