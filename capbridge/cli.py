@@ -337,8 +337,12 @@ def cmd_generate_triplet(args):
     from capbridge.surrogate.triplet import TripletSurrogate, holdout_errors
 
     grid = TripletGrid.shipped(args.quick)
+    gravity = GravityPlan.shipped(args.quick)
     axes = {"d12": grid.gaps, "d13": grid.gaps, "d23": grid.gaps, "theta": grid.theta,
-            "v": grid.v, "holdout": list(range(args.holdout))}
+            "v": grid.v, "grain": (1, 2, 3), "component": (0, 1, 2),
+            "holdout": list(range(args.holdout)), "gravity_v": gravity.v,
+            "gravity_component": (0, 1, 2),
+            "gravity_holdout": list(range(len(gravity.cases) * len(gravity.bonds)))}
     # before hours of Evolver: can the table be written, would it replace another grid?
     check_table_target(args.output, {k: list(map(float, v)) for k, v in axes.items()},
                        overwrite=args.overwrite, flag="--overwrite")
@@ -346,7 +350,7 @@ def cmd_generate_triplet(args):
     ds = build_triplet_table(grid, n_holdout=args.holdout, checkpoint_dir=args.checkpoint_dir,
                              n_jobs=args.jobs, scheduler=args.scheduler,
                              progress=not args.no_progress, command=command,
-                             gravity=GravityPlan.shipped(args.quick))
+                             gravity=gravity)
     coal = args.coalescence_table
     if coal is None and DEFAULT_COALESCENCE_TABLE.exists() and not args.quick:
         coal = DEFAULT_COALESCENCE_TABLE
