@@ -1,0 +1,155 @@
+"""Gravity on the liquid: grain force vectors from the zero-gravity force and the tables'
+response to the gravity vector.
+
+Gravity enters as the vector b = Bo g_hat (Bo = drho g r^2 / gamma of the normalising
+radius, g_hat the unit vector along which gravity pulls).  The grains carry the liquid's
+weight, W b with W = V*/(2 pi) in F* = F/(2 pi gamma r) units, and the sagging body
+changes the capillary forces themselves at second order.
+
+Doublet (n the unit vector from grain 1 to grain 2, b_n = b . n, b_perp = b - b_n n):
+
+    F1 = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2
+    F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2]
+
+w is the share of the weight grain 1 carries at first order with gravity along the axis
+(1/2 for equal grains and angles, by the mirror symmetry that swaps them), c the second
+derivative of the attraction in b_n (exact axisymmetric solver with gravity,
+:mod:`capbridge.generator.young_laplace_gravity`).  The transverse share is 1/2 exactly for
+equal grains, by the same symmetry, and taken as 1/2 otherwise.
+
+Triplet (table frame of :mod:`capbridge.generator.triplet_table`):
+
+    F_i(b) = F_i(0) + sum_k G_ik b_k + sum_k C_ik b_k^2 / 2
+
+with G = ``force_gravity_gradient`` and C = ``force_gravity_curvature`` of the triplet
+table (:mod:`capbridge.generator.triplet_gravity`).
+
+Both sum to F(0) summed plus W b at first order: the sum rule the tests check.
+
+Reference: Miot et al. (2021), Granular Matter 23:66, section 3.4.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from capbridge.validation import CapbridgeInputError
+
+__all__ = ["gravity_vector", "liquid_weight", "doublet_gravity_forces",
+           "triplet_gravity_forces"]
+
+
+def gravity_vector(bond, direction):
+    """b = Bo g_hat from a Bond number and a direction (normalised here).
+
+    Parameters
+    ----------
+    bond : array_like
+        Bo = drho g r^2 / gamma [-], >= 0.
+    direction : array_like (..., 3)
+        Direction along which gravity pulls (any length > 0).
+
+    Returns
+    -------
+    ndarray (..., 3)
+
+    >>> gravity_vector(2.14, (0, 0, -9.81)).tolist()
+    [0.0, 0.0, -2.14]
+    """
+    bond = np.asarray(bond, float)
+    if np.any(~np.isfinite(bond)) or np.any(bond < 0):
+        bad = bond[~(np.isfinite(bond) & (bond >= 0))].flat[0]
+        raise CapbridgeInputError(f"Bond number Bo={bad!r} is not allowed: Bo >= 0 "
+                                  "(Bo = drho g r^2 / gamma)")
+    d = np.asarray(direction, float)
+    if d.shape[-1:] != (3,):
+        raise CapbridgeInputError(f"gravity direction {direction!r}: give three "
+                                  "components x,y,z")
+    norm = np.linalg.norm(d, axis=-1)
+    if np.any(~np.isfinite(norm)) or np.any(norm == 0):
+        raise CapbridgeInputError(f"gravity direction {direction!r}: must be a finite, "
+                                  "non-zero vector (e.g. 0,0,-1)")
+    return bond[..., None] * d / norm[..., None]
+
+
+def liquid_weight(volume):
+    """Weight of the liquid per unit of b, W = V*/(2 pi) [F* per unit Bo].
+
+    The force of gravity on a liquid volume V in F* = F/(2 pi gamma r) units is
+    drho g V / (2 pi gamma r) = Bo V* / (2 pi).
+
+    >>> round(float(liquid_weight(2 * np.pi)), 12)
+    1.0
+    """
+    return np.asarray(volume, float) / (2 * np.pi)
+
+
+def doublet_gravity_forces(force, axis, volume, b, share_axial=0.5, curvature_axial=0.0):
+    """Force vectors of the liquid on the two grains of a doublet with gravity.
+
+    Parameters
+    ----------
+    force : array_like (...)
+        Zero-gravity attraction F0 [F*], > 0 attractive.
+    axis : array_like (..., 3)
+        Unit vector n from grain 1 to grain 2.
+    volume : array_like (...)
+        Bridge volume V* [-] (normalising radius, as for Bo and F*).
+    b : array_like (..., 3)
+        Gravity vector b = Bo g_hat (:func:`gravity_vector`).
+    share_axial : array_like (...), default 1/2
+        w: first-order share of the weight on grain 1, gravity along the axis.
+    curvature_axial : array_like (...), default 0
+        c = d2F/db_n^2 of the attraction [F*].
+
+    Returns
+    -------
+    F1, F2 : ndarray (..., 3)
+        Forces on grain 1 and grain 2 [F*]; F1 + F2 = V*/(2 pi) b exactly.
+
+    Examples
+    --------
+    Equal grains, gravity across the axis: each grain carries half of the weight.
+
+    >>> F1, F2 = doublet_gravity_forces(0.4, (1, 0, 0), 2 * np.pi, (0, 0, -0.1))
+    >>> F1.round(12).tolist(), F2.round(12).tolist()
+    ([0.4, 0.0, -0.05], [-0.4, 0.0, -0.05])
+    """
+    n = np.asarray(axis, float)
+    b = np.asarray(b, float)
+    F0 = np.asarray(force, float)[..., None]
+    W = liquid_weight(volume)[..., None]
+    w = np.asarray(share_axial, float)[..., None]
+    c = np.asarray(curvature_axial, float)[..., None]
+    bn = np.sum(b * n, axis=-1)[..., None]
+    b_perp = b - bn * n
+    attraction = F0 + 0.5 * c * bn ** 2
+    F1 = attraction * n + W * (w * bn * n + 0.5 * b_perp)
+    F2 = -attraction * n + W * ((1.0 - w) * bn * n + 0.5 * b_perp)
+    return F1, F2
+
+
+def triplet_gravity_forces(force, gradient, curvature, b):
+    """Force vectors on the three grains of a coalesced triplet with gravity.
+
+    Parameters
+    ----------
+    force : array_like (..., 3, 3)
+        Zero-gravity force vectors [grain, component] [F*].
+    gradient, curvature : array_like (..., 3, 3, 3)
+        G = dF/db and C = d2F/db_k2 [grain, component, component of b] in the same frame.
+    b : array_like (..., 3)
+        Gravity vector b = Bo g_hat in that frame.
+
+    Returns
+    -------
+    ndarray (..., 3, 3)
+        F_i(b) = F_i(0) + G_i b + C_i b^2 / 2 (b^2 componentwise).
+
+    >>> G = np.zeros((3, 3, 3)); G[:, 2, 2] = 1 / 3
+    >>> F = triplet_gravity_forces(np.zeros((3, 3)), G, np.zeros((3, 3, 3)), (0, 0, -0.3))
+    >>> F[:, 2].round(12).tolist()
+    [-0.1, -0.1, -0.1]
+    """
+    b = np.asarray(b, float)[..., None, None, :]
+    return (np.asarray(force, float) + np.sum(np.asarray(gradient, float) * b, axis=-1)
+            + 0.5 * np.sum(np.asarray(curvature, float) * b ** 2, axis=-1))
