@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from capbridge.dem_plugin.liquid_gravity import ERROR_BAND
 from capbridge.dimensionless import force_scale
 from capbridge.status import Status
 
@@ -528,6 +529,8 @@ class BridgeModel:
         self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
         self._empty()
         self.films = np.zeros(self.n)
+        # gravity part of each grain's force last handed to the DEM [N] (liquid_gravity)
+        self.gravity_held = np.zeros((self.n, 3))
         self.ledger = {"rule": self.liquid.kind, "initial_volume": 0.0, "initial_count": 0,
                        "formed_count": 0, "formed_volume": 0.0, "ruptured_count": 0,
                        "ruptured_volume": 0.0, "formations_short_of_liquid": 0,
@@ -580,6 +583,7 @@ class BridgeModel:
         self.rsum = e_f.copy()                   # r_i + r_j
         self.inv_dr = e_f.copy()                 # 1 / rupture gap [1/m]
         self.fscale = e_f.copy()                 # 2 pi gamma r_small [N]
+        self.fstar_min = e_f.copy()              # smallest F* over s >= 0.2 (gravity)
         self.keys = np.empty(0, np.int64)
         self.born = e_i.copy()
         self.held = np.empty((0, 3))             # force vector last handed to the DEM
@@ -621,7 +625,12 @@ class BridgeModel:
             self.pool = np.vstack([self.pool, np.zeros_like(self.pool)])
             self.free[:0] = list(range(2 * old - 1, old - 1, -1))
         slots = np.array([self.free.pop() for _ in range(i.size)], np.intp)
-        self.pool[slots] = self.table.rows("force", c)
+        prof = self.table.rows("force", c)
+        self.pool[slots] = prof
+        # smallest attraction over s >= 0.2 (liquid_gravity.ERROR_BAND, the band of the
+        # table's held-out error): the bridge's largest relative gravity correction
+        band = self.table.s_axis.nodes >= ERROR_BAND
+        self.fstar_min = np.concatenate([self.fstar_min, prof[:, band].min(axis=1)])
         self.slot = np.concatenate([self.slot, slots])
         if np.any(cidx >= 0):
             self.cand.has_bridge[cidx[cidx >= 0]] = True
@@ -670,7 +679,7 @@ class BridgeModel:
         self.free.extend(self.slot[mask].tolist())
         self._touched = np.concatenate([self._touched, self.bi[mask], self.bj[mask]])
         for name in ("bi", "bj", "cidx", "vol", "vstar", "rsmall", "d_rupt_si", "keys", "born",
-                     "slot", "held", "rsum", "inv_dr", "fscale"):
+                     "slot", "held", "rsum", "inv_dr", "fscale", "fstar_min"):
             setattr(self, name, getattr(self, name)[keep])
         for k in self.const:
             self.const[k] = self.const[k][keep]
@@ -886,13 +895,22 @@ class BridgeModel:
         else:
             self.held = fv
             changed = None
-        out = self.held_grain_forces()
+        out = self._bridge_sums()
         if changed is None and list_changed:
             changed = np.unique(np.concatenate([self.bi, self.bj, self._touched]))
         return out, changed
 
     def held_grain_forces(self):
-        """(n, 3) sums on the grains of the force vectors last handed out [N]."""
+        """(n, 3) sums on the grains of the force vectors last handed out [N]: the
+        bridges' forces and the liquid's weight (:attr:`gravity_held`, set by
+        :class:`~capbridge.dem_plugin.liquid_gravity.LiquidGravity`)."""
+        out = self._bridge_sums()
+        if self.gravity_held.shape == out.shape:
+            out += self.gravity_held
+        return out
+
+    def _bridge_sums(self):
+        """(n, 3) sums on the grains of the bridges' force vectors last handed out."""
         h = self.held.ravel()
         xyz = np.arange(3)
         on_i = np.bincount((3 * self.bi[:, None] + xyz).ravel(), h, minlength=3 * self.n)
@@ -954,6 +972,8 @@ class BridgeModel:
         self.theta = self.theta[keep]
         self.grain_class = self.grain_class[keep]
         self.films = self.films[keep]
+        if self.gravity_held.shape[0] == keep.size:
+            self.gravity_held = self.gravity_held[keep]
         self.n = int(self.radii.size)
         self.bi, self.bj = new_index[self.bi], new_index[self.bj]
         self.keys = self.bi.astype(np.int64) * self.n + self.bj
@@ -971,7 +991,7 @@ class BridgeModel:
         return {"n": self.n, "radii": self.radii.copy(), "theta": self.theta.copy(),
                 "bi": self.bi.copy(), "bj": self.bj.copy(), "vol": self.vol.copy(),
                 "born": self.born.copy(), "held": self.held.copy(),
-                "films": self.films.copy(),
+                "films": self.films.copy(), "gravity_held": self.gravity_held.copy(),
                 "refused_keys": self.cand.keys[self.cand.refused].copy(),
                 "ledger": dict(self.ledger), "fixed_volume": self.fixed_volume,
                 "initialised": self.initialised, "liquid": dataclasses.asdict(self.liquid)}
@@ -991,6 +1011,9 @@ class BridgeModel:
         self._add(bi, bj, np.asarray(st["vol"], float), 0)
         self.born = np.asarray(st["born"], np.intp).copy()
         self.held = np.asarray(st["held"], float).reshape(-1, 3).copy()
+        gh = st.get("gravity_held")            # absent in states saved before gravity
+        self.gravity_held = (np.zeros((self.n, 3)) if gh is None
+                             else np.asarray(gh, float).reshape(-1, 3).copy())
         self.ledger = dict(st["ledger"])
         self.initialised = bool(st["initialised"])
         self.cand.ref = None                       # rebuilt at the next update

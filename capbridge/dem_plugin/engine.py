@@ -48,6 +48,14 @@ forces put there.  With ``refresh_every > 1`` or ``force_tolerance > 0`` it hold
 forces as permanent forces, *adding* its change to the permanent force present
 (``permF - ours_before + ours_now``), so a permanent force the user set before is kept.
 
+Gravity on the liquid (:mod:`capbridge.dem_plugin.liquid_gravity`): the engine reads g
+from the scene's ``NewtonIntegrator.gravity`` at every refresh (never writes it) and adds
+to the two grains of every bridge the liquid's weight drho V g, split as
+:func:`capbridge.surrogate.gravity.doublet_gravity_forces` says (drho =
+``liquid_density``).  ``gravity_correction="auto"`` applies it to the bridges where it is
+larger than the doublet table's own error and prints one start-up line with the
+numbers; "on" / "off" force it.  Wall bridges and triplet clusters carry no gravity.
+
 Restarts: the engine's state (bridges, volumes, films, ledger, held forces, and any part
 registered with :meth:`CapbridgeEngine.register_state`) is written into the scene's
 ``O.tags`` whenever the scene is saved (``O.save``, ``O.saveTmp``: capbridge wraps them
@@ -88,6 +96,8 @@ import numpy as np
 from capbridge.dem_plugin import scene_geometry, state_io
 from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem_plugin.coalescence_detect import find_coalescence
+from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY, GRAVITY_MODES,
+                                                 LiquidGravity)
 from capbridge.validation import CapbridgeInputError
 
 __all__ = ["CapbridgeEngine", "suction_law2", "get_engine", "ENGINE_PARAMETERS",
@@ -129,7 +139,15 @@ ENGINE_PARAMETERS = {
                          "in (0, 1] (needs sample_volume)"),
     "sample_volume": (None, "volume of the sample [m^3], for saturation (and to report "
                             "the current saturation)"),
-    "liquid_density": (1000.0, "liquid density [kg/m^3], for water_content"),
+    "liquid_density": (None, "liquid density [kg/m^3]: liquid mass -> volume for "
+                             "water_content and, as the density difference liquid - gas, "
+                             "the liquid's weight under gravity; default (None) water: "
+                             "1000 for water_content, 997 (water - air at 20 C) for the "
+                             "weight"),
+    "gravity_correction": ("auto", "gravity on the liquid (g read from NewtonIntegrator."
+                                   "gravity at every refresh): 'auto' applies it to the "
+                                   "bridges where it exceeds the doublet table's error, "
+                                   "'on' to every bridge, 'off' never"),
     "conserve_liquid": (None, "True: liquid conserved (ruptured bridges return it to their "
                               "grains, new bridges take it from them); False: every bridge "
                               "gets the same fixed volume; default True for a total liquid, "
@@ -326,12 +344,12 @@ class CapbridgeEngine:
 
     def __init__(self, theta=0.0, gamma=0.073, *, bridge_volume=None, bridge_volume_star=None,
                  liquid_volume=None, water_content=None, saturation=None, sample_volume=None,
-                 liquid_density=1000.0, conserve_liquid=None, film_fraction=0.5,
+                 liquid_density=None, conserve_liquid=None, film_fraction=0.5,
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
-                 triplet_split="table"):
+                 triplet_split="table", gravity_correction="auto"):
         totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
                                  ("saturation", saturation)) if v is not None]
         per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
@@ -343,7 +361,7 @@ class CapbridgeEngine:
         if saturation is not None and sample_volume is None:
             raise CapbridgeInputError("saturation needs sample_volume (the volume of the "
                                       "sample, m^3)")
-        from capbridge.validation import check_range
+        from capbridge.validation import check_choice, check_range
         if water_content is not None:
             check_range("water_content", water_content, 0.0, np.inf, low_open=True,
                         hint="a fraction: liquid mass / grain mass, 0.01 for 1 %")
@@ -365,7 +383,18 @@ class CapbridgeEngine:
                        "liquid_volume": liquid_volume, "water_content": water_content,
                        "saturation": saturation}
         self.sample_volume = sample_volume
-        self.liquid_density = float(liquid_density)
+        if liquid_density is not None:
+            check_range("liquid_density", liquid_density, 0.0, np.inf, low_open=True,
+                        units=" kg/m^3", hint="density difference liquid - gas, 997 for "
+                                              "water in air at 20 C")
+        # water by default: 1000 kg/m^3 for water_content (as before gravity was added),
+        # 997 kg/m^3 (water - air at 20 C) for the liquid's weight
+        self.liquid_density = 1000.0 if liquid_density is None else float(liquid_density)
+        check_choice("gravity_correction", gravity_correction, GRAVITY_MODES)
+        self.gravity_correction = gravity_correction
+        self.gravity = LiquidGravity(gravity_correction,
+                                     DEFAULT_LIQUID_DENSITY if liquid_density is None
+                                     else float(liquid_density), self.gamma)
         self.conserve_liquid = conserve_liquid
         self.film_fraction = float(film_fraction)
         self.formation_gap = float(formation_gap)
@@ -377,7 +406,6 @@ class CapbridgeEngine:
             raise ValueError("force_tolerance must be >= 0")
         self.coalescence = bool(coalescence)
         self.coalescence_every = max(1, int(coalescence_every))
-        from capbridge.validation import check_choice
         check_choice("triplet_split", triplet_split, ("table", "exact", "merge_volumes"))
         self.triplet_split = triplet_split
         self._init_triplets(triplet_forces, triplet_table)
@@ -406,6 +434,7 @@ class CapbridgeEngine:
         self._erased = 0
         self._parts = {}                      # extra state: name -> (get, set)
         self.register_state("clusters", self._clusters_get, self._clusters_set)
+        self.register_state("gravity", self.gravity.get_state, self.gravity.set_state)
         self._params = {k: _jsonable(v) for k, v in locals().items()
                         if k in ENGINE_PARAMETERS and k not in ("table", "theta")}
         # the shipped table by name, so that a saved scene loads on another machine
@@ -661,6 +690,15 @@ class CapbridgeEngine:
             forces += tri["forces"]
             if changed is not None:
                 changed = np.union1d(changed, tri["grains"])
+        # gravity on the liquid (g re-read from NewtonIntegrator; bridges merged into a
+        # liquid cluster keep the cluster's zero-gravity forces)
+        in_clusters = (self.clusters.bridge_rows(self.model)
+                       if self.clusters is not None and self.clusters.n else None)
+        g_forces, g_changed = self.gravity.grain_forces(self, O, geom, in_clusters)
+        if g_forces is not None:
+            forces = forces + g_forces
+            if changed is not None and g_changed is not None:
+                changed = np.union1d(changed, g_changed)
         forces, changed = scene_geometry.wall_forces(self, O, pos, forces, changed, first)
         self._apply(forces, changed, O)
         self._last_geom = geom
@@ -777,7 +815,7 @@ class CapbridgeEngine:
         # the user's to set again)
         self._applied = np.zeros((self.ids.size, 3))
         if self.holds_forces:
-            f = self.model.held_grain_forces()
+            f = self.model.held_grain_forces()     # the liquid's weight included
             rows = np.flatnonzero(np.any(f != 0.0, axis=1))
             self._add_perm(rows, f[rows], O)
         self.timings["restore_seconds"] = self.timings.get("restore_seconds", 0.0) + \
@@ -968,6 +1006,8 @@ class CapbridgeEngine:
                        total_force=float(g["force"].sum()) if g is not None else 0.0,
                        finite=bool(np.all(np.isfinite(g["force"]))) if g is not None else True)
             out["walls"] = self.walls.summary() if self.walls is not None else None
+            out["gravity"] = dict(self.gravity.summary,
+                                  bridges_corrected=self.gravity.n_corrected)
             out["periodic"] = self._cell.h.tolist() if self._cell is not None else None
         return out
 

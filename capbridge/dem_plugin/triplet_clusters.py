@@ -332,6 +332,15 @@ class LiquidClusters:
         out[found] = order[at[found]]
         return out
 
+    def bridge_rows(self, model):
+        """Rows in the model of the bridges merged into the clusters (gravity on the
+        liquid: those keep the cluster's zero-gravity forces, the triplet table having
+        no gravity response in the engine yet)."""
+        if not self.n:
+            return np.empty(0, np.intp)
+        rows = self._rows(model, self.members.reshape(-1, 2))
+        return rows[rows >= 0]
+
     def lookup(self, model, pos, grains, volume):
         """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
 

@@ -1,0 +1,242 @@
+"""Gravity on the liquid in CapbridgeEngine (issue 10), in real YADE (Debian's 2023.02a).
+
+Scene: ``tests/yade_scenes/gravity_capbridge.py``, two equal glass beads held by the
+scene (fixed, one driven apart along the skew axis (1, 2, 2)/3) with one water bridge
+(V* = 0.05, theta = 20 deg, gamma = 0.073 N/m, drho = 997 kg/m^3), gravity read from the
+NewtonIntegrator.
+
+* 4 mm beads (Bo = drho g R^2 / gamma = 2.14): the correction is applied; on the two
+  grains together the liquid forces are the liquid's weight drho V g (to 1e-9), each
+  grain carries half of it (equal grains: exact), the capillary forces alone (the same
+  scene without gravity) have zero net force;
+* 0.1 mm beads (Bo = 1.3e-3): skipped, the forces are those without gravity bit for bit,
+  the start-up line says why;
+* gravity_correction="on" / "off" override the decision;
+* a gravity the user changes mid-run is followed and never overwritten;
+* O.saveTmp / O.loadTmp give the same forces bit for bit, forces added every step or
+  held as permanent forces.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY,
+                                                 bridge_gravity_forces, relative_correction)
+
+SCENE = Path(__file__).parent / "yade_scenes" / "gravity_capbridge.py"
+_YADE = yr.find_yade()
+G = np.array([0.0, 0.0, -9.81])
+
+
+def _skip_without_yade():
+    if _YADE is None:
+        pytest.skip("Debian's yade is not installed")
+
+
+def _run(*args, timeout=120):
+    return yr.run_yade_script(SCENE, [str(a) for a in args], timeout=timeout).result
+
+
+def _forces(rows):
+    return np.array([r["f0"] for r in rows]), np.array([r["f1"] for r in rows])
+
+
+def _startup_line(res):
+    lines = [m for m in res["messages"] if "gravity on the liquid (start-up" in m]
+    assert len(lines) == 1, res["messages"]
+    return lines[0]
+
+
+def _weights(res, rows):
+    """drho V g of every row [N], from the scene's own volume and gravity."""
+    return np.array([res["liquid_density"] * r["volume"] * np.array(r["gravity"])
+                     for r in rows])
+
+
+def _check_weight_rides_on_grains(res, ref):
+    """Sum of the two grains' forces = drho V g; each grain carries half; the
+    zero-gravity reference has zero net force."""
+    rows = res["rows"]
+    assert all(r["n_bridges"] == 1 for r in rows)
+    f0, f1 = _forces(rows)
+    r0, r1 = _forces(ref["rows"])
+    W = _weights(res, rows)
+    scale = np.linalg.norm(W, axis=1)[:, None]
+    assert np.all(scale > 0)
+    np.testing.assert_allclose(f0 + f1, W, rtol=0, atol=1e-9 * scale.max())
+    np.testing.assert_array_equal(r0 + r1, 0.0)            # capillary: action = reaction
+    np.testing.assert_allclose(f0 - r0, W / 2, rtol=0, atol=1e-9 * scale.max())
+    np.testing.assert_allclose(f1 - r1, W / 2, rtol=0, atol=1e-9 * scale.max())
+
+
+@pytest.mark.yade
+@pytest.mark.parametrize("tolerance", [0.0, 1e-3])
+def test_4mm_beads_carry_the_liquid_weight(tolerance):
+    """Bo 2.14: applied; forces on the grains sum to drho V g, half on each."""
+    _skip_without_yade()
+    res = _run("--radius", 4e-3, "--mode", "auto", "--tolerance", tolerance, "--steps", 40)
+    ref = _run("--radius", 4e-3, "--gravity", "none", "--tolerance", tolerance, "--steps", 40)
+    line = _startup_line(res)
+    st = res["gravity_state"]
+    assert "applied" in line and st["applied"] and st["bridges_corrected"] == 1
+    bo = res["liquid_density"] * 9.81 * res["radius"] ** 2 / res["gamma"]
+    assert st["bond_largest"] == pytest.approx(bo, rel=1e-12)
+    assert f"{bo:.4g}" in line and f"{st['table_error']:.3g}" in line
+    assert st["largest_relative_correction"] > st["table_error"]
+    assert res["liquid_density"] == DEFAULT_LIQUID_DENSITY
+    _check_weight_rides_on_grains(res, ref)
+    # the weight is not lost in the round-off of the capillary forces
+    r0, _ = _forces(ref["rows"])
+    assert np.linalg.norm(_weights(res, res["rows"]), axis=1).min() > \
+        1e-3 * np.linalg.norm(r0, axis=1).max()
+
+
+@pytest.mark.yade
+def test_small_beads_skip_the_correction():
+    """0.1 mm beads (Bo 1.3e-3): skipped, with the reason; forces are those of the
+    scene without gravity, bit for bit."""
+    _skip_without_yade()
+    res = _run("--radius", 1e-4, "--mode", "auto", "--steps", 30)
+    ref = _run("--radius", 1e-4, "--gravity", "none", "--steps", 30)
+    line = _startup_line(res)
+    st = res["gravity_state"]
+    assert "skipped" in line and "below the table error" in line
+    assert not st["applied"] and st["bridges_corrected"] == 0
+    assert st["largest_relative_correction"] <= st["table_error"]
+    assert f"{st['largest_relative_correction']:.3g}" in line
+    assert all(r["n_bridges"] == 1 for r in res["rows"])
+    f0, f1 = _forces(res["rows"])
+    r0, r1 = _forces(ref["rows"])
+    np.testing.assert_array_equal(f0, r0)
+    np.testing.assert_array_equal(f1, r1)
+    # and the gravity it skipped really was below the table's error
+    bo = res["liquid_density"] * 9.81 * res["radius"] ** 2 / res["gamma"]
+    assert bo * res["vstar"] / (4 * np.pi) < st["table_error"] * np.linalg.norm(r0[0]) / (
+        2 * np.pi * res["gamma"] * res["radius"])
+
+
+@pytest.mark.yade
+def test_on_and_off_override_the_decision():
+    """'on' applies the correction to the small beads, 'off' removes it from the
+    large ones."""
+    _skip_without_yade()
+    on = _run("--radius", 1e-4, "--mode", "on", "--steps", 20)
+    ref_small = _run("--radius", 1e-4, "--gravity", "none", "--steps", 20)
+    assert "applied to every bridge (gravity_correction='on')" in _startup_line(on)
+    _check_weight_rides_on_grains(on, ref_small)
+    off = _run("--radius", 4e-3, "--mode", "off", "--steps", 20)
+    ref_large = _run("--radius", 4e-3, "--gravity", "none", "--steps", 20)
+    line = _startup_line(off)
+    assert "off (gravity_correction='off')" in line and "2.144" in line
+    assert not off["gravity_state"]["applied"]
+    for a, b in zip(_forces(off["rows"]), _forces(ref_large["rows"])):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.yade
+def test_gravity_changed_mid_run_is_followed():
+    """The user sets another (oblique) gravity at iter 15: the forces follow it
+    from that step, a line says so, and the NewtonIntegrator keeps the user's value."""
+    _skip_without_yade()
+    g2 = (3.0, 0.0, -4.0)
+    res = _run("--radius", 4e-3, "--mode", "auto", "--steps", 30, "--change-at", 15,
+               "--gravity2", ",".join(map(str, g2)))
+    ref = _run("--radius", 4e-3, "--gravity", "none", "--steps", 30)
+    assert res["final_gravity"] == list(g2)
+    assert [r["gravity"] for r in res["rows"]] == [G.tolist()] * 15 + [list(g2)] * 15
+    assert sum("gravity changed at iter 15" in m for m in res["messages"]) == 1
+    _check_weight_rides_on_grains(res, ref)
+    f0, f1 = _forces(res["rows"])
+    assert abs(f0[20, 0] + f1[20, 0]) > 0 and f0[5, 0] + f1[5, 0] == 0
+
+
+@pytest.mark.yade
+@pytest.mark.parametrize("tolerance,refresh", [(0.0, 1), (1e-3, 1), (0.0, 3)])
+def test_save_tmp_load_tmp_keeps_forces_bit_identical(tolerance, refresh):
+    """O.saveTmp mid-run, steps, O.loadTmp, the same steps: the same forces bit for
+    bit (forces added every step, held as permanent forces with a tolerance, or
+    refreshed every 3 steps), gravity correction included.
+
+    With refresh_every > 1 the engine restores its held forces at its first update
+    after the load (YADE drops permanent forces on load; a property of the engine's
+    restart, with or without gravity): the steps before that update are left out."""
+    _skip_without_yade()
+    res = _run("--radius", 4e-3, "--mode", "auto", "--steps", 40, "--restart",
+               "--tolerance", tolerance, "--refresh", refresh)
+    assert res["gravity_state"]["applied"]
+    b, a = res["before"], res["after"]
+    assert [r["iter"] for r in a] == [r["iter"] for r in b]
+    first = next(k for k, r in enumerate(a) if (r["iter"] - 1) % refresh == 0)
+    assert first < refresh
+    b, a = b[first:], a[first:]
+    for x, y in zip(_forces(b), _forces(a)):
+        np.testing.assert_array_equal(x, y)
+    f0, f1 = _forces(a)
+    np.testing.assert_allclose(f0 + f1, _weights(res, a), rtol=0,
+                               atol=1e-9 * np.abs(_weights(res, a)).max())
+    assert sum("state restored" in m for m in res["messages"]) == 1
+
+
+@pytest.mark.yade
+def test_save_and_load_in_a_new_process_keep_the_gravity_settings(tmp_path):
+    """O.save with gravity_correction='on' and liquid_density=1260 on 0.1 mm beads
+    (which 'auto' would skip), O.load in a new process that makes no engine: the same
+    forces bit for bit, the same settings, no new start-up decision."""
+    _skip_without_yade()
+    f = tmp_path / "grav.yade.gz"
+    ref = _run("--radius", 1e-4, "--mode", "on", "--rho", 1260, "--steps", 30, "--save", f)
+    new = _run("--radius", 1e-4, "--steps", 30, "--load", f)
+    assert new["mode"] == "on" and new["liquid_density"] == 1260.0
+    assert new["gravity_state"]["applied"]
+    assert not any("gravity on the liquid" in m for m in new["messages"])
+    assert [r["iter"] for r in new["rows"]] == [r["iter"] for r in ref["rows"]]
+    for x, y in zip(_forces(ref["rows"]), _forces(new["rows"])):
+        np.testing.assert_array_equal(x, y)
+    f0, f1 = _forces(new["rows"])
+    W = _weights(new, new["rows"])
+    np.testing.assert_allclose(f0 + f1, W, rtol=0, atol=1e-9 * np.abs(W).max())
+
+
+# ------------------------------------------------------------ without YADE
+
+
+def test_unequal_grains_sum_to_the_weight_and_share_by_the_smaller_grain():
+    """bridge_gravity_forces: the two parts sum to drho V g for any order of the
+    grains; the smaller grain's part does not depend on which one is i."""
+    rng = np.random.default_rng(3)
+    m = 50
+    d = rng.normal(size=(m, 3))
+    dist = np.linalg.norm(d, axis=1) * 1e-3
+    d *= 1e-3
+    r_i = rng.uniform(0.5e-3, 2e-3, m)
+    r_j = rng.uniform(0.5e-3, 2e-3, m)
+    rs = np.minimum(r_i, r_j)
+    vstar = rng.uniform(1e-3, 0.3, m)
+    gamma, drho, g = 0.073, 997.0, np.array([1.0, -2.0, -9.0])
+    fs = 2 * np.pi * gamma * rs
+    fi, fj = bridge_gravity_forces(d, dist, r_i, r_j, vstar, fs, g, drho, gamma)
+    weight = drho * (vstar * rs**3)[:, None] * g
+    np.testing.assert_allclose(fi + fj, weight, rtol=1e-12, atol=0)
+    gi, gj = bridge_gravity_forces(-d, dist, r_j, r_i, vstar, fs, g, drho, gamma)
+    np.testing.assert_allclose(gi, fj, rtol=1e-12, atol=1e-30)
+    np.testing.assert_allclose(gj, fi, rtol=1e-12, atol=1e-30)
+    # the relative size grows like Bo V* / F*
+    assert relative_correction(2.0, 0.1, 0.5) == pytest.approx(2 * relative_correction(1.0, 0.1, 0.5))
+
+
+def test_bad_liquid_density_and_mode_are_one_line_errors():
+    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.validation import CapbridgeInputError
+
+    with pytest.raises(CapbridgeInputError) as exc:
+        CapbridgeEngine(bridge_volume_star=0.05, liquid_density=-3.0, label="bad_rho")
+    msg = str(exc.value)
+    assert "liquid_density=-3.0" in msg and "(0, inf)" in msg and "\n" not in msg
+    with pytest.raises(CapbridgeInputError) as exc:
+        CapbridgeEngine(bridge_volume_star=0.05, gravity_correction="maybe", label="bad_mode")
+    msg = str(exc.value)
+    assert "gravity_correction" in msg and "'auto'" in msg and "\n" not in msg
