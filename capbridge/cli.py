@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from capbridge.reproduce import STUDIES
-from capbridge.status import Status, status_name
+from capbridge.status import HAS_RESULT, Status, status_name
 from capbridge.validation import CapbridgeInputError, check_range, interval_text
 
 DATA = Path(__file__).resolve().parent.parent / "data"
@@ -32,11 +32,90 @@ def _json_value(v):
     return [_json_value(x) for x in v]
 
 
+def parse_gravity(bond, gravity, bond_max, what):
+    """(Bo, unit direction) from ``--bond BO`` and ``--gravity X,Y,Z`` (text or None).
+
+    Bo in [0, ``bond_max``] (``what`` names the limit in the message); the direction
+    along which gravity pulls, three finite components not all zero, default (0, 0, -1);
+    ``--gravity`` without ``--bond`` is refused.  Returns (0.0, None) without
+    ``--bond``.  Errors: one CapbridgeInputError line naming the value and the range.
+    """
+    if bond is None:
+        if gravity is not None:
+            raise CapbridgeInputError(f"--gravity {gravity} needs --bond BO (the Bond "
+                                      f"number, in [0, {bond_max:g}])")
+        return 0.0, None
+    bo = float(check_range("--bond", bond, 0.0, bond_max,
+                           hint=f"Bond number Bo = drho g r^2 / gamma ({what})"))
+    if gravity is None:
+        return bo, np.array([0.0, 0.0, -1.0])
+    parts = [p.strip() for p in str(gravity).split(",")]
+    try:
+        g = np.array([float(p) for p in parts])
+    except ValueError:
+        g = None
+    if g is None or g.size != 3 or not np.all(np.isfinite(g)) or not np.any(g):
+        raise CapbridgeInputError(
+            f"--gravity {gravity!r}: give the direction along which gravity pulls as three "
+            "finite numbers X,Y,Z, not all zero (e.g. 0,0,-1)")
+    return bo, g / np.linalg.norm(g)
+
+
+def _solve_doublet_gravity(args, bond, direction):
+    """``solve doublet --bond``: the exact axisymmetric solver when gravity is along the
+    axis (+-x), else Surface Evolver with two spheres (slower)."""
+    if args.V is None:
+        raise CapbridgeInputError("--bond needs --V (volume control): suction control "
+                                  "(--P) with gravity is not available")
+    theta2 = args.theta if args.theta2 is None else args.theta2
+    out = {"d": args.d, "V": args.V, "theta": args.theta, "theta2": theta2,
+           "ratio": args.ratio, "bond": bond, "gravity": direction.tolist(),
+           "frame": "grain 1 (radius 1) at the origin, grain 2 (radius ratio) on +x; "
+                    "gravity: the direction it pulls"}
+    axial = abs(direction[0]) >= 1.0 - 1e-12 or bond == 0.0
+    if axial:
+        from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+
+        axis = -1.0 if direction[0] <= 0 else 1.0         # any side at Bo = 0
+        r = solve_doublet_gravity(args.d, args.V, args.theta, bond, args.ratio, args.theta2,
+                                  gravity_axis=axis)
+        r = {k: (float(v) if np.ndim(v) == 0 and k != "status" else v) for k, v in r.items()}
+        st = Status(int(r["status"]))
+        f1, f2 = r["force1"], r["force2"]
+        out.update(method="exact (axisymmetric, gravity along the axis)",
+                   F1=[f1, 0.0, 0.0], F2=[-f2, 0.0, 0.0], F=r["force"], weight=r["weight"],
+                   P_centre1=r["pressure_centre1"], beta1=r["beta1"], beta2=r["beta2"],
+                   energy=r["energy"], status=status_name(st))
+    else:
+        from capbridge.generator.evolver import minimise_bridge
+
+        print("capbridge: gravity not along the axis: Surface Evolver (minutes, not "
+              "milliseconds)", file=sys.stderr)
+        centres = [[0.0, 0.0, 0.0], [1.0 + args.ratio + args.d, 0.0, 0.0]]
+        res = minimise_bridge(centres, [1.0, args.ratio], [args.theta, theta2], args.V,
+                              "doublet", bond=bond, gravity_dir=tuple(direction),
+                              max_refine=args.max_refine)
+        st = res.status
+        F = res.forces if res.converged else np.full((2, 3), np.nan)
+        out.update(method=f"Surface Evolver (level {res.refinement})", F1=F[0], F2=F[1],
+                   force_error=res.force_error, weight=bond * args.V / (2 * np.pi),
+                   cpu_time=res.cpu_time, status=status_name(st), reason=res.reason)
+    out["units"] = ("dimensionless by R1 and gamma: F* = F/(2 pi gamma R1) (force vectors "
+                    "on each grain; F1 + F2 = weight * gravity), P* = dp R1/gamma")
+    print(json.dumps(_json_tree(out), indent=1))
+    return 0 if st in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
+
+
 def cmd_solve_doublet(args):
     from capbridge.generator.young_laplace import solve_doublet, solve_doublet_suction
+    from capbridge.generator.young_laplace_gravity import BOND_MAX as SOLVER_BOND_MAX
 
+    bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
+                                    "the exact solver's range")
     if (args.V is None) == (args.P is None):
         raise CapbridgeInputError("give exactly one of --V (volume control) or --P (suction control)")
+    if args.bond is not None:
+        return _solve_doublet_gravity(args, bond, direction)
     if args.V is not None:
         r = solve_doublet(args.d, args.V, args.theta, args.ratio, args.theta2)
         volume = args.V   # the requested volume, also when the solve failed
@@ -106,9 +185,16 @@ def cmd_lookup_doublet(args):
 
     from capbridge.tabular_io import check_new_output, read_points_csv
 
-    columns, x = read_points_csv(args.input, LOOKUP_INPUTS, LOOKUP_OPTIONAL, LOOKUP_RESERVED)
+    from capbridge.surrogate.doublet import BOND_MAX
+
+    bond, direction = parse_gravity(args.bond, args.gravity, BOND_MAX,
+                                    "the surrogates' range")
+    reserved = LOOKUP_RESERVED + (DOUBLET_VECTOR_COLUMNS if args.bond is not None else ())
+    columns, x = read_points_csv(args.input, LOOKUP_INPUTS, LOOKUP_OPTIONAL, reserved)
     check_new_output(args.output, inputs=[args.input], overwrite=args.overwrite)
     sur = _load_surrogate(args.table, "clip" if args.clip else "raise")
+    if args.bond is not None:
+        return _lookup_doublet_gravity(args, sur, columns, x, bond, direction)
     r = lookup_points(sur, x["d"], x["V"], x["theta"], x.get("ratio", 1.0), x.get("theta2"))
     df = pd.DataFrame(columns)
     for key, col in LOOKUP_OUTPUTS.items():
@@ -118,6 +204,42 @@ def cmd_lookup_doublet(args):
     df.to_csv(args.output, index=False)
     print(f"wrote {len(df)} rows to {args.output} ({int((r['method'] == 'exact').sum())} "
           f"by the exact solver: theta2 != theta)", file=sys.stderr)
+    return 0
+
+
+#: lookup doublet --bond: force vectors on grain 1 and grain 2
+DOUBLET_VECTOR_COLUMNS = tuple(f"F{g}{c}" for g in (1, 2) for c in "xyz")
+
+
+def _lookup_doublet_gravity(args, sur, columns, x, bond, direction):
+    """``lookup doublet --bond``: force vectors from :meth:`DoubletSurrogate.predict_vectors`
+    (frame: grain 1 at the origin, grain 2 on +x)."""
+    import pandas as pd
+
+    if "theta2" in x and np.any(x["theta2"] != x["theta"]):
+        raise CapbridgeInputError(
+            "--bond with theta2 != theta: mixed angles with gravity are not in the doublet "
+            "table; use `capbridge solve doublet --bond --theta2` per point")
+    r = sur.predict_vectors(x["d"], x["V"], x["theta"], x.get("ratio", 1.0), bond=bond,
+                            gravity=direction)
+    df = pd.DataFrame(columns)
+    df["F"] = r["force"]
+    for g, key in ((1, "F1"), (2, "F2")):
+        for k, c in enumerate("xyz"):
+            df[f"F{g}{c}"] = r[key][:, k]
+    df["d_rupt"] = r["rupture_gap"]
+    df["status"] = [status_name(s) for s in r["status"]]
+    df["method"] = "table"
+    df.to_csv(args.output, index=False)
+    st = r["status"]
+    gap_only = int((st == Status.OUT_OF_RANGE).sum())
+    print(f"wrote {len(df)} rows to {args.output} (Bo = {bond:g}, gravity along "
+          f"{np.round(direction, 6).tolist()}; F = the attraction without gravity)",
+          file=sys.stderr)
+    if gap_only:
+        print(f"capbridge: warning: {gap_only} rows are beyond the rupture distance without "
+              "gravity but inside the one with gravity: the table has no bridge there "
+              "(status out_of_range, no number)", file=sys.stderr)
     return 0
 
 
@@ -193,7 +315,58 @@ def cmd_info_table(args):
         if k.startswith("holdout_") and k != "holdout_description":
             print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
     _print_holdout(ds)
+    _info_doublet_gravity(ds)
     return 0
+
+
+def _info_doublet_gravity(ds):
+    """The gravity content of a doublet table (response variables, rupture with
+    gravity, their attributes), or one line saying there is none."""
+    from capbridge.surrogate.doublet import BOND_MAX, GRAVITY_VARIABLES
+
+    names = [n for n in GRAVITY_VARIABLES + ("gravity_status", "rupture_gap_gravity")
+             if n in ds]
+    if not names:
+        print("  gravity: none (the lookups answer Bo = 0 only; `capbridge solve doublet "
+              "--bond` solves with gravity)")
+        return
+    print(f"  gravity (Bo up to {BOND_MAX:g} in the lookups):")
+    for n in names:
+        dims = ", ".join(f"{d} {ds.sizes[d]}" for d in ds[n].dims)
+        print(f"    {n} ({dims}): {ds[n].attrs.get('long_name', '')}")
+    for d in ("bond", "gravity_axis"):
+        if d in ds.coords:
+            print(f"    {d}: {np.asarray(ds[d].values).tolist()}")
+    if "gravity_status" in ds:
+        st = np.asarray(ds["gravity_status"].values)
+        print(f"    response points: {st.size}, with a result: "
+              f"{int(np.isin(st, [int(x) for x in HAS_RESULT]).sum())}")
+    for k, v in sorted(ds.attrs.items()):
+        if "gravity" in k:
+            print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
+
+
+def _info_triplet_gravity(ds, path):
+    """The gravity content of a triplet table: the response's grid and the held-out
+    errors of the surrogate with gravity (:func:`gravity_holdout_errors`)."""
+    if "force_gravity_gradient" not in ds:
+        print("  gravity: none (the lookups answer Bo = 0 only; `capbridge solve triplet "
+              "--bond` solves with gravity)")
+        return
+    sur = _load_triplet_surrogate(path)
+    g = sur.gravity_summary()
+    print(f"  gravity: response on v = {g['gravity_v']} ({g['nodes']['with_response']} of "
+          f"{g['nodes']['total']} nodes with a result); Bo supported [0, "
+          f"{g['bond_max_supported']:g}], validated [0, {g['bond_max_validated']:g}] "
+          "(above: status approximate)")
+    h = g.get("holdout")
+    if h:
+        print(f"    held-out direct Evolver points with gravity ({h['n_cases_used']} of "
+              f"{h['n_cases']} cases answered); threshold {h['threshold']:.3g} "
+              f"({h['threshold_source']}):")
+        for b, e, f in zip(h["bonds"], h["max_error_by_bond"], h["max_effect_error_by_bond"]):
+            print(f"      Bo = {b:<5g} max error {e:.3g}, of the gravity effect alone {f:.3g}"
+                  " (relative to the largest grain force)")
 
 
 def _print_header(ds, path, axes):
@@ -231,6 +404,7 @@ def _info_triplet(ds, path):
         print(f"  per point: median {np.median(cpu):.1f} CPU s; estimated force error "
               f"median {np.nanmedian(err):.2%}, max {np.nanmax(err):.2%}")
     _print_holdout(ds)
+    _info_triplet_gravity(ds, path)
     return 0
 
 
@@ -281,18 +455,45 @@ TRIPLET_OUTPUTS = {"f12": "f12", "f13": "f13", "f23": "f23", "pressure": "P",
 TRIPLET_RESERVED = tuple(TRIPLET_OUTPUTS.values()) + ("status", "lower_energy_state")
 
 
+#: lookup triplet --bond: force vectors on grains 1, 2, 3 (table frame of the gaps)
+TRIPLET_VECTOR_COLUMNS = tuple(f"F{g}{c}" for g in (1, 2, 3) for c in "xyz")
+
+
+def _triplet_vectors(sur, x, bond, direction):
+    """Force vectors with gravity for CSV rows of gaps: the centres of each row in the
+    table frame (:func:`capbridge.generator.triplet.triplet_geometry`: grains 2 and 3 on
+    the x axis, grain 1 at z > 0), gravity given in that frame."""
+    from capbridge.generator.triplet import triplet_geometry
+
+    centres = np.stack([triplet_geometry(a, b, c).centres
+                        for a, b, c in zip(x["d12"], x["d13"], x["d23"])])
+    return sur.predict_vectors(centres, x["V"], x["theta"], bond=bond, gravity=direction)
+
+
 def cmd_lookup_triplet(args):
     import pandas as pd
 
     from capbridge.surrogate.triplet import LOWER_ENERGY_STATES
     from capbridge.tabular_io import check_new_output, read_points_csv
 
-    columns, x = read_points_csv(args.input, TRIPLET_INPUTS, (), TRIPLET_RESERVED)
+    from capbridge.surrogate.triplet import BOND_MAX
+
+    bond, direction = parse_gravity(args.bond, args.gravity, BOND_MAX,
+                                    "the surrogates' range")
+    reserved = TRIPLET_RESERVED + (TRIPLET_VECTOR_COLUMNS if args.bond is not None else ())
+    columns, x = read_points_csv(args.input, TRIPLET_INPUTS, (), reserved)
     check_new_output(args.output, inputs=[args.input], overwrite=args.overwrite)
     sur = _load_triplet_surrogate(args.table, args.coalescence_table,
                                   "clip" if args.clip else "raise")
-    r = sur.predict(x["d12"], x["d13"], x["d23"], x["V"], x["theta"])
+    if args.bond is not None:
+        r = _triplet_vectors(sur, x, bond, direction)
+    else:
+        r = sur.predict(x["d12"], x["d13"], x["d23"], x["V"], x["theta"])
     df = pd.DataFrame(columns)
+    if args.bond is not None:
+        for g in range(3):
+            for k, c in enumerate("xyz"):
+                df[f"F{g + 1}{c}"] = r["forces"][:, g, k]
     for key, col in TRIPLET_OUTPUTS.items():
         df[col] = r[key]
     df["lower_energy_state"] = [LOWER_ENERGY_STATES[int(c)] for c in r["lower_energy_state"]]
@@ -309,14 +510,21 @@ def cmd_solve_triplet(args):
     geom = triplet_geometry(args.d12, args.d13, args.d23)
     V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True,
                           hint="total liquid volume V* = V/r^3"))
+    from capbridge.generator.young_laplace_gravity import BOND_MAX as SOLVER_BOND_MAX
+
     theta = float(check_range("--theta", args.theta, 0.0, 90.0, high_open=True,
                               units=" deg"))
+    bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
+                                    "the solvers' range")
+    kw = {} if args.bond is None else {"bond": bond, "gravity_dir": tuple(direction)}
     r = evolver_triplet(V, geom, theta, "coalesced", max_refine=args.max_refine,
-                        inspect_mesh=False)
+                        inspect_mesh=False, **kw)
     out = {"d12": geom.d12, "d13": geom.d13, "d23": geom.d23, "V": V, "theta": theta,
+           "bond": bond, "gravity": None if direction is None else direction.tolist(),
            "status": r["status"], "reason": r["reason"],
            "centres": np.round(geom.centres, 12).tolist(),
-           "frame": "grains 2 and 3 on the x axis symmetric about x = 0, grain 1 at z > 0",
+           "frame": "grains 2 and 3 on the x axis symmetric about x = 0, grain 1 at z > 0"
+                    " (gravity: the direction it pulls, in this frame)",
            "forces": r["forces"], "force_error": r["force_error"],
            "force_error_rel": r["force_error_rel"],
            "pair_forces": r["pair_forces"], "pair_residual": r["pair_residual"],
@@ -509,7 +717,9 @@ def cmd_reproduce(args):
 V_MAX_DEFAULT = 2.5
 
 # a negative number in any float notation (argparse's own pattern misses "-1e6")
-_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$",
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$"
+                              # or a vector x,y,z that starts with one (--gravity -1,0,0)
+                              r"|^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?(,[-+]?[\d.eE+-]*)+$",
                               re.IGNORECASE)
 
 
@@ -555,6 +765,17 @@ def build_parser():
     sd.add_argument("--theta", type=float, required=True, help="contact angle [deg]")
     sd.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
     sd.add_argument("--ratio", type=float, default=1.0, help="R2/R1 >= 1")
+    sd.add_argument("--bond", type=float, default=None, metavar="BO",
+                    help="gravity on the liquid: Bond number Bo = drho g R1^2/gamma in [0, 5]"
+                         " (needs --V); the output then has the force vectors F1, F2 on "
+                         "both grains")
+    sd.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                    help="direction along which gravity pulls (default 0,0,-1), frame: "
+                         "grain 1 at the origin, grain 2 on +x.  Along the axis (+-1,0,0): "
+                         "the exact axisymmetric solver; any other direction: Surface "
+                         "Evolver (much slower)")
+    sd.add_argument("--max-refine", type=_number(1, 6, integer=True), default=3,
+                    help="Evolver refinement level (only for --gravity off the axis)")
     sd.set_defaults(func=cmd_solve_doublet)
     st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
                           "liquid body on three equal spheres (JSON out)")
@@ -565,6 +786,11 @@ def build_parser():
     st.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
     st.add_argument("--max-refine", type=_number(1, 6, integer=True), default=3,
                     help="finest Evolver refinement level (default 3, as the table)")
+    st.add_argument("--bond", type=float, default=None, metavar="BO",
+                    help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 5]")
+    st.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                    help="direction along which gravity pulls (default 0,0,-1) in the "
+                         "table frame: grains 2 and 3 on the x axis, grain 1 at z > 0")
     st.set_defaults(func=cmd_solve_triplet)
 
     look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)
@@ -576,6 +802,14 @@ def build_parser():
                     help="volumes outside the table: answer at its edge, same d*/d*_rupt "
                          "(status extrapolated, or ruptured) instead of failing")
     ld.add_argument("--overwrite", action="store_true", help="replace an existing --output")
+    ld.add_argument("--bond", type=float, default=None, metavar="BO",
+                    help="gravity on the liquid: Bond number Bo = drho g R1^2/gamma in "
+                         "[0, 2.5] (the table needs its gravity response); adds the force "
+                         "vectors F1x..F2z on grain 1 and 2 (F stays the attraction "
+                         "without gravity, d_rupt is with gravity)")
+    ld.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                    help="direction along which gravity pulls (default 0,0,-1), frame: "
+                         "grain 1 at the origin, grain 2 on +x")
     ld.set_defaults(func=cmd_lookup_doublet)
     lt = look.add_parser("triplet", help="coalesced-triplet pair forces for the rows of a CSV")
     lt.add_argument("--input", required=True, help="CSV with columns d12, d13, d23, V, theta "
@@ -589,6 +823,14 @@ def build_parser():
                     help="volumes above the table: answer at its largest V/V_coal (status "
                          "extrapolated); below it: no number (no_equilibrium or out_of_range)")
     lt.add_argument("--overwrite", action="store_true", help="replace an existing --output")
+    lt.add_argument("--bond", type=float, default=None, metavar="BO",
+                    help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 2.5]"
+                         " (the table needs its gravity response); adds the force vectors "
+                         "F1x..F3z on the three grains (f12, f13, f23 stay without gravity)")
+    lt.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                    help="direction along which gravity pulls (default 0,0,-1) in the table "
+                         "frame of each row: grains 2 and 3 on the x axis (3 at +x), grain 1 "
+                         "at z > 0, centres in the plane y = 0")
     lt.set_defaults(func=cmd_lookup_triplet)
 
     gen = sub.add_parser("generate", help="regenerate tables").add_subparsers(dest="what", required=True)

@@ -14,10 +14,15 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import make_interp_spline
 
-from capbridge.status import Status
+from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.gravity import doublet_gravity_forces, gravity_vector
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 VARIABLES = ("force", "pressure", "beta1", "beta2")
+#: the table's response to gravity on the liquid (:mod:`capbridge.generator.doublet_gravity`):
+#: first-order share of the weight on grain 1 with gravity along the axis, and the second
+#: derivative of the attraction in the axial component b_n of b = Bo g_hat
+GRAVITY_VARIABLES = ("weight_share_axial", "force_gravity_curvature_axial")
 
 #: fine-grid settings with which a table's stored error model is measured when the
 #: table does not say otherwise (``holdout_refine``, ``holdout_theta_step`` attributes)
@@ -31,6 +36,56 @@ MIN_THETA_STEP = 0.1
 #: almost surely a unit slip (radii in mm, gamma in mN/m), refused rather than answered
 SI_RADIUS_RANGE = (1e-7, 0.1)            # [m]: 0.1 um to 10 cm grains
 SI_SURFACE_TENSION_RANGE = (1e-3, 2.0)   # [N/m]: liquids to molten metals
+SI_DENSITY_RANGE = (0.0, 2.5e4)          # [kg/m^3]: density difference liquid - gas
+SI_GRAVITY_RANGE = (0.0, 1e3)            # [m/s^2]: |g| (centrifuges included)
+
+#: the largest Bond number Bo = drho g r^2 / gamma the surrogates answer (issue 10's
+#: range; the tables' gravity responses are checked against Surface Evolver up to it)
+BOND_MAX = 2.5
+
+
+def si_bond(radius, surface_tension, density_difference, gravity):
+    """Bond number and direction of gravity from SI inputs.
+
+    Bo = drho |g| r^2 / gamma (:func:`capbridge.dimensionless.bond_number`).
+
+    Parameters
+    ----------
+    radius : array_like
+        Normalising radius r [m].
+    surface_tension : float
+        gamma [N/m].
+    density_difference : float
+        drho = rho_liquid - rho_gas [kg/m^3], in :data:`SI_DENSITY_RANGE`.
+    gravity : array_like (3,)
+        Acceleration of gravity as a vector [m/s^2] (direction: where it pulls), its
+        length in :data:`SI_GRAVITY_RANGE`.
+
+    Returns
+    -------
+    bond : ndarray
+        Bo [-] (0 where drho or |g| is 0).
+    direction : ndarray (3,)
+        Unit vector along gravity ((0, 0, -1) when |g| = 0).
+
+    >>> bo, d = si_bond(4e-3, 0.073, 997.0, (0.0, 0.0, -9.81))
+    >>> round(float(bo), 2), d.tolist()
+    (2.14, [0.0, 0.0, -1.0])
+    """
+    from capbridge.dimensionless import bond_number
+
+    slip = "SI units expected: density in kg/m^3, gravity in m/s^2 (a unit slip?)"
+    drho = check_range("predict_si density_difference", density_difference,
+                       *SI_DENSITY_RANGE, units=" kg/m^3", hint=slip)
+    g = check_range("predict_si gravity", gravity, units=" m/s^2",
+                    hint="give the acceleration vector (gx, gy, gz)")
+    if g.shape != (3,):
+        raise CapbridgeInputError(f"predict_si gravity={np.asarray(gravity).tolist()!r}: "
+                                  "give one vector of three components (gx, gy, gz) in m/s^2")
+    norm = float(np.linalg.norm(g))
+    check_range("predict_si |gravity|", norm, *SI_GRAVITY_RANGE, units=" m/s^2", hint=slip)
+    direction = g / norm if norm > 0 else np.array([0.0, 0.0, -1.0])
+    return bond_number(radius, surface_tension, drho, norm), direction
 
 #: exponent of the rupture distance in V*: d*_rupt ~ (1 + theta/2) V*^(1/3)
 #: (Lian, Thornton & Adams 1993), used to keep the state (bridge or none) when a
@@ -238,12 +293,21 @@ class DoubletSurrogate:
         res["status"] = st.reshape(shape)
         return res
 
-    def predict_si(self, radius1, radius2, surface_tension, gap, volume, theta):
+    def predict_si(self, radius1, radius2, surface_tension, gap, volume, theta,
+                   density_difference=None, gravity=None):
         """The bridge in SI units: radii, gap [m], volume [m^3], gamma [N/m], theta [deg].
 
         Returns force [N] (attraction > 0), pressure [Pa], beta1/beta2 [deg] on the
         smaller/larger grain, rupture_gap [m] and status.  The smaller radius
         normalises (``capbridge.dimensionless``).
+
+        With gravity on the liquid: ``density_difference`` drho [kg/m^3] and
+        ``gravity`` the acceleration vector [m/s^2] (default (0, 0, -9.81)) in the frame
+        with grain 1 (``radius1``) at the origin and grain 2 on +x.  Bo = drho |g| R^2 /
+        gamma (R the smaller radius, :func:`capbridge.dimensionless.bond_number`) and
+        the answer of :meth:`predict_vectors`: extra keys ``F1``, ``F2`` (..., 3) [N]
+        on grain 1 and 2, ``bond`` and ``rupture_gap`` with gravity; ``force`` stays
+        the zero-gravity attraction [N].
 
         >>> sur = DoubletSurrogate().fit(_default_table())
         >>> f = sur.predict_si(1e-3, 1e-3, 0.072, 0.0, 1e-12, 0.0)["force"]
@@ -270,8 +334,202 @@ class DoubletSurrogate:
                 f"R2/R1, R1 the smaller radius [m]; theta in degrees)") from None
         si = to_si(r, surface_tension, force=res["force"], pressure=res["pressure"],
                    gap=res["rupture_gap"])
-        return {"force": si["force"], "pressure": si["pressure"], "beta1": res["beta1"],
-                "beta2": res["beta2"], "rupture_gap": si["gap"], "status": res["status"]}
+        out = {"force": si["force"], "pressure": si["pressure"], "beta1": res["beta1"],
+               "beta2": res["beta2"], "rupture_gap": si["gap"], "status": res["status"]}
+        if density_difference is None and gravity is None:
+            return out
+        bond, direction = si_bond(r, surface_tension,
+                                  0.0 if density_difference is None else density_difference,
+                                  (0.0, 0.0, -9.81) if gravity is None else gravity)
+        # the surrogate's grain 1 is the smaller one: mirror x where radius1 > radius2
+        swap = np.asarray(r1 > r2)
+        d = np.where(swap[..., None], direction * np.array([-1.0, 1.0, 1.0]), direction)
+        try:
+            vec = self.predict_vectors(q["gap"], q["volume"], theta, np.maximum(r1, r2) / r,
+                                       bond=bond, gravity=d)
+        except CapbridgeInputError as exc:
+            raise CapbridgeInputError(f"predict_si: {exc} (Bo = density_difference [kg/m^3]"
+                                      " |gravity| [m/s^2] R^2 / surface_tension, R the "
+                                      "smaller radius [m])") from None
+        mirror = np.array([-1.0, 1.0, 1.0])
+        F1 = np.where(swap[..., None], vec["F2"] * mirror, vec["F1"])
+        F2 = np.where(swap[..., None], vec["F1"] * mirror, vec["F2"])
+        fs = to_si(r, surface_tension, force=1.0)["force"]
+        fs = np.asarray(fs)[..., None]
+        out.update(F1=F1 * fs, F2=F2 * fs, bond=np.asarray(bond),
+                   rupture_gap=to_si(r, surface_tension, gap=vec["rupture_gap"])["gap"],
+                   status=vec["status"])
+        return out
+
+    # ---------------------------------------------------------------------- gravity
+    def has_gravity(self):
+        """True if the table carries the response to gravity
+        (:data:`GRAVITY_VARIABLES`)."""
+        self._check_fitted()
+        return all(n in self.table_ for n in GRAVITY_VARIABLES)
+
+    def _check_bond(self, bond):
+        bo = np.asarray(bond, float)
+        gravity_vector(bo, (0.0, 0.0, -1.0))            # finite, >= 0
+        if np.any(bo > BOND_MAX):
+            raise CapbridgeInputError(
+                f"Bond number Bo={float(bo.max())!r} is above the supported range [0, "
+                f"{BOND_MAX:g}]; use the exact solver (capbridge solve doublet --bond)")
+        if np.any(bo > 0) and not self.has_gravity():
+            raise CapbridgeInputError(
+                f"Bond number Bo={float(bo.max())!r}: this doublet table has no gravity "
+                f"response ({', '.join(GRAVITY_VARIABLES)}); Bo must be 0 with it, or use "
+                "the exact solver (capbridge solve doublet --bond)")
+        return bo
+
+    def predict_vectors(self, gap, volume, theta, ratio=1.0, bond=0.0, gravity=None):
+        """Force vectors on both grains, with gravity on the liquid.
+
+        Frame: grain 1 (radius 1, the smaller) at the origin, grain 2 on +x (the
+        convention of :mod:`capbridge.generator.young_laplace_gravity`); n = (1, 0, 0).
+
+        Parameters
+        ----------
+        gap, volume, theta, ratio : array_like
+            As for :meth:`predict` (d*, V*, theta [deg], R2/R1).
+        bond : array_like, default 0
+            Bo = drho g R1^2 / gamma, in [0, :data:`BOND_MAX`].  Bo = 0 gives exactly
+            the answer of :meth:`predict`.
+        gravity : array_like (..., 3), optional
+            Direction along which gravity pulls, in this frame; default (0, 0, -1)
+            (across the axis).
+
+        Returns
+        -------
+        dict
+            ``F1``, ``F2`` (..., 3): forces on grain 1 and 2 [F*], from
+            :func:`~capbridge.surrogate.gravity.doublet_gravity_forces`,
+
+                F1 = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2,
+                F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2],
+
+            W = V*/(2 pi), b = Bo g_hat, b_n = b . n; F0 the zero-gravity force of the
+            table, w (``weight_share_axial``) and c (``force_gravity_curvature_axial``)
+            interpolated (multilinear, log V*) at the point's (ratio, theta, V*, s).
+            ``force`` F0, ``share``, ``curvature``, ``gravity`` b, ``rupture_gap``
+            (with gravity: ``rupture_gap_gravity`` at Bo_axial = |b_n| on the side
+            gravity_axis = sign(b_n), linear in Bo from the zero-gravity value),
+            ``rupture_gap_zero_gravity`` and ``status``:
+
+            * gap beyond the rupture distance with gravity: RUPTURED, F1 = F2 = 0;
+            * gap beyond the zero-gravity rupture but inside the one with gravity:
+              OUT_OF_RANGE, no number (the table has no bridge there);
+            * b with a transverse component and gap within the last 10 % of the
+              rupture distance: APPROXIMATE (rupture under transverse gravity is not
+              computed);
+            * the response not available at a corner (``gravity_status``): NOT_CONVERGED;
+              a point outside the response's sub-grid: its nearest edge, APPROXIMATE.
+        """
+        self._check_fitted()
+        base = self.predict(gap, volume, theta, ratio, variables=("force",))
+        st = np.array(base["status"], np.int8)
+        shape = st.shape
+        bo = np.broadcast_to(self._check_bond(bond), shape)
+        b = np.broadcast_to(gravity_vector(bo, (0.0, 0.0, -1.0) if gravity is None
+                                           else gravity), shape + (3,))
+        if b.shape[:-1] != shape:
+            raise CapbridgeInputError(f"gravity of shape {np.shape(gravity)} does not "
+                                      f"broadcast to the points' shape {shape}")
+        g, V, t, R = (np.broadcast_to(np.asarray(x, float), shape)
+                      for x in (gap, volume, theta, ratio))
+        F0 = np.array(base["force"], float)
+        rup0 = np.array(base["rupture_gap"], float)
+        rup = rup0.copy()
+        share = np.full(shape, 0.5)
+        curv = np.zeros(shape)
+        on = bo > 0
+        if on.any():
+            bn = b[..., 0]
+            s = np.sqrt(np.clip(1.0 - g / rup0, 0.0, 1.0))
+            w, c, code = self._gravity_response(R[on], t[on], V[on], s[on])
+            share[on], curv[on] = w, c
+            rg, rcode = self._rupture_gravity(R[on], t[on], V[on], np.abs(bn[on]),
+                                              np.sign(bn[on]), rup0[on])
+            rup[on] = rg
+            code = np.maximum(code, rcode)
+            sto = st[on]
+            gon = g[on]
+            has = np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED))
+            beyond0 = sto == Status.RUPTURED
+            sto = np.where(has & (code == 2), np.int8(Status.NOT_CONVERGED), sto)
+            sto = np.where(beyond0 & (gon <= rg), np.int8(Status.OUT_OF_RANGE), sto)
+            sto = np.where(np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED)) & (gon > rg),
+                           np.int8(Status.RUPTURED), sto)
+            transverse = np.linalg.norm(b[on] - bn[on][:, None] * np.array([1.0, 0, 0]),
+                                        axis=-1) > 0
+            near = gon > 0.9 * rg
+            sto = np.where((sto == Status.CONVERGED) & ((code == 1) | (transverse & near)),
+                           np.int8(Status.APPROXIMATE), sto)
+            st[on] = sto
+        n = np.broadcast_to(np.array([1.0, 0.0, 0.0]), shape + (3,))
+        F1, F2 = doublet_gravity_forces(F0, n, V, b, share, curv)
+        F1 = np.where(on[..., None], F1, F0[..., None] * n)
+        F2 = np.where(on[..., None], F2, -F0[..., None] * n)
+        ruptured = st == Status.RUPTURED
+        nores = ~np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED, Status.RUPTURED))
+        for F in (F1, F2):
+            F[ruptured] = 0.0
+            F[nores] = np.nan
+        return {"F1": F1, "F2": F2, "force": np.where(nores, np.nan, F0),
+                "share": share, "curvature": curv, "gravity": np.array(b),
+                "rupture_gap": rup, "rupture_gap_zero_gravity": rup0, "status": st}
+
+    def _gravity_response(self, ratio, theta, volume, s):
+        """w, c and a code (0 ok, 1 clipped to the sub-grid, 2 not available)."""
+        ds = self.table_
+        pts = {"ratio": ratio, "theta": theta, "volume": volume, "s": s}
+        bad = None
+        if "gravity_status" in ds:
+            st = ds["gravity_status"]
+            bad = (~np.isin(st.values, [int(x) for x in HAS_RESULT])).astype(float)
+            bad = xr.DataArray(bad, dims=st.dims, coords={d: st[d] for d in st.dims
+                                                          if d in st.coords})
+        out, codes = [], []
+        for name in GRAVITY_VARIABLES:
+            da = ds[name]
+            vals, code = _interp_on(da, pts)
+            out.append(vals)
+            codes.append(code)
+        code = np.maximum(codes[0], codes[1])
+        if bad is not None:
+            b, _ = _interp_on(bad, pts, fill_nan=False)
+            code = np.where(b > 0, 2, code)
+        return out[0], out[1], code.astype(np.int8)
+
+    def _rupture_gravity(self, ratio, theta, volume, bond_axial, side, rup0):
+        """Rupture distance with gravity along the axis (``rupture_gap_gravity``): its
+        values at the ``bond`` nodes, the zero-gravity rupture distance at Bo = 0
+        (linear in between); side 0 (gravity across): the zero-gravity one."""
+        if "rupture_gap_gravity" not in self.table_:
+            return rup0.copy(), np.where(bond_axial > 0, 1, 0).astype(np.int8)
+        da = self.table_["rupture_gap_gravity"]
+        out = rup0.copy()
+        code = np.zeros(rup0.shape, np.int8)
+        for sgn in (-1.0, 1.0):
+            m = (side == sgn) & (bond_axial > 0)
+            if not m.any():
+                continue
+            sl = da.sel(gravity_axis=sgn) if "gravity_axis" in da.dims else da
+            bonds = np.asarray(sl["bond"].values, float)
+            pts = {"ratio": ratio[m], "theta": theta[m], "volume": volume[m]}
+            looked = [_interp_on(sl.isel(bond=k), pts) for k in range(bonds.size)]
+            vals = np.stack([a[0] for a in looked], -1)
+            cds = np.max(np.stack([a[1] for a in looked], -1), -1)
+            x = bond_axial[m]
+            if bonds[0] > 0:
+                bonds = np.concatenate([[0.0], bonds])
+                vals = np.concatenate([rup0[m][:, None], vals], -1)
+            r = np.array([np.interp(x[i], bonds, vals[i]) for i in range(x.size)])
+            above = x > bonds[-1] * (1 + 1e-12)
+            out[m] = r
+            code[m] = np.where(~np.isfinite(r), 2, np.where(above, 1, cds))
+        return out, code
+
 
     def _ratio_weights(self, ratio):
         """Weights of each ratio slice in the spline through them, at ``ratio``.
@@ -330,6 +588,48 @@ class DoubletSurrogate:
         if name == "force":
             val = np.where(s2 < 0.0, 0.0, val)
         return val
+
+
+def _interp_on(da, points, fill_nan=True):
+    """Multilinear interpolation of ``da`` (dims among ratio, theta, volume, s; log V*
+    along volume) at ``points`` (name -> array, one entry per dim).
+
+    Coordinates outside the variable's axis are clipped to it (code 1); a NaN at a
+    corner with a positive weight gives code 2 (value NaN); dims of length 1 are taken
+    constant (code 1 where the point is not on that node).  Returns (values, code).
+    """
+    from scipy.interpolate import RegularGridInterpolator
+
+    n = np.asarray(next(iter(points.values()))).size
+    code = np.zeros(n, np.int8)
+    axes, xs, sel = [], [], {}
+    for d in da.dims:
+        if d not in points:
+            raise ValueError(f"{da.name}: unexpected dimension {d!r}")
+        c = np.asarray(da[d].values, float)
+        x = np.broadcast_to(np.asarray(points[d], float), (n,))
+        tol = 1e-9 * max(1.0, np.max(np.abs(c)))
+        off = (x < c[0] - tol) | (x > c[-1] + tol)
+        code = np.maximum(code, off.astype(np.int8))
+        if c.size == 1:
+            sel[d] = 0
+            continue
+        x = np.clip(x, c[0], c[-1])
+        if d == "volume":
+            c, x = np.log(c), np.log(x)
+        axes.append(c)
+        xs.append(x)
+    vals = np.asarray(da.isel(sel).transpose(*[d for d in da.dims if d not in sel]).values,
+                      float)
+    if not axes:
+        return np.full(n, float(vals)), code
+    nan = ~np.isfinite(vals)
+    out = RegularGridInterpolator(axes, np.where(nan, 0.0, vals))(np.stack(xs, -1))
+    if fill_nan and nan.any():
+        hit = RegularGridInterpolator(axes, nan.astype(float))(np.stack(xs, -1)) > 0
+        code = np.where(hit, 2, code).astype(np.int8)
+        out = np.where(hit, np.nan, out)
+    return out, code
 
 
 def _bilinear(grid, i, fi, j, fj):

@@ -86,12 +86,16 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import make_interp_spline
 
-from capbridge.status import Status
-from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, _refine_axis
+from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.doublet import (BOND_MAX, SI_DENSITY_RANGE, SI_GRAVITY_RANGE,
+                                         SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
+                                         _refine_axis, si_bond)
+from capbridge.surrogate.gravity import gravity_vector, liquid_weight, triplet_gravity_forces
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
-__all__ = ["TripletSurrogate", "holdout_errors", "LOWER_ENERGY_STATES", "PAIR_NAMES",
-           "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES", "default_table"]
+__all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
+           "LOWER_ENERGY_STATES", "PAIR_NAMES", "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES",
+           "default_table", "table_frame", "BOND_MAX"]
 
 PAIR_NAMES = ("f12", "f13", "f23")
 #: pairs (0-based grains) in the order of PAIR_NAMES
@@ -545,7 +549,9 @@ class TripletSurrogate:
         if self.holdout_ is not None and self.holdout_["n"]:
             e = holdout_errors(self)
             self.interpolation_error_ = {k: e[k] for k in ("median_rel_error",
-                                                           "max_rel_error", "n")}
+                                                           "max_rel_error",
+                                                           "max_rel_to_largest", "n")}
+        self._fit_gravity(ds)
         return self
 
     @staticmethod
@@ -686,7 +692,8 @@ class TripletSurrogate:
                           "not_converged": int(cells[2]), "no_equilibrium": int(cells[3])},
                 "symmetrisation_max_change": self.asymmetry_,
                 "separated_energy": bool(self.has_separated_energy_),
-                "holdout_error": self.interpolation_error_}
+                "holdout_error": self.interpolation_error_,
+                "gravity": self.gravity_summary()}
 
     def spline_at(self, d12, d13, d23, theta, v):
         """The refined interpolant itself (splines along each axis, no fine grid) at
@@ -909,8 +916,101 @@ class TripletSurrogate:
                 "'extrapolated'; below it: no number) or Surface Evolver (capbridge "
                 "solve triplet)")
 
+    # ---------------------------------------------------------------------- gravity
+    def _fit_gravity(self, ds):
+        """The table's response to gravity (if any) and its held-out validation.
+
+        ``force_gravity_gradient`` G and ``force_gravity_curvature`` C (table frame of
+        each node, :mod:`capbridge.generator.triplet_gravity`) are divided by the
+        node's liquid weight W_node = v V*_coal / (2 pi) and interpolated multilinearly
+        on the raw (d12, d13, d23, theta, gravity_v) grid; a lookup multiplies them by
+        the weight W = V*/(2 pi) of the asked volume.  Written so, sum_i G_i = W I holds
+        at every point to the largest ``gravity_sum_residual`` of the cell's nodes
+        (multilinear weights are a convex combination), also between nodes where
+        v V*_coal is not multilinear, and clipping v to the response's range keeps the
+        grains' shares of the weight.
+        """
+        self.has_gravity_ = "force_gravity_gradient" in ds
+        self.gravity_bond_max_ = 0.0
+        self.gravity_errors_ = None
+        if not self.has_gravity_:
+            return
+        dims = ("d12", "d13", "d23", "theta", "gravity_v")
+        tdims = dims + ("grain", "component", "gravity_component")
+        G = np.asarray(ds["force_gravity_gradient"].transpose(*tdims).values, float)
+        C = np.asarray(ds["force_gravity_curvature"].transpose(*tdims).values, float)
+        st = np.asarray(ds["gravity_status"].transpose(*dims).values)
+        res = np.asarray(ds["gravity_sum_residual"].transpose(*dims).values, float)
+        gv = np.asarray(ds["gravity_v"].values, float)
+        Vc = np.asarray(ds["volume_coalescence"].transpose(*dims[:4]).values, float)
+        W = liquid_weight(Vc[..., None] * gv)
+        ok = np.isin(st, [int(x) for x in HAS_RESULT]) & np.isfinite(W) & (W > 0) & \
+            np.isfinite(G).all((-3, -2, -1)) & np.isfinite(C).all((-3, -2, -1)) & \
+            np.isfinite(res)
+        Wn = np.where(ok, W, 1.0)[..., None, None, None]
+        vals = np.concatenate([(G / Wn).reshape(ok.shape + (27,)),
+                               (C / Wn).reshape(ok.shape + (27,))], -1)
+        vals[~ok] = 0.0
+        if gv.size == 1:          # one volume ratio: the response taken constant in v
+            gv = np.array([gv[0], gv[0] * 2.0])
+            vals, ok, res = (np.concatenate([x, x], axis=4) for x in (vals, ok, res))
+            self._gravity_single_v = True
+        else:
+            self._gravity_single_v = False
+        self.gravity_v_ = np.asarray(ds["gravity_v"].values, float)
+        coarse = [self.gaps_] * 3 + [self.theta_, gv]
+        self.gravity_axes_ = [_FineAxis(c, 1) for c in coarse]
+        self.gravity_grid_ = _Grid(np.ascontiguousarray(vals), "multilinear")
+        self.gravity_cell_bad_ = np.ascontiguousarray(_cell_max((~ok).astype(np.int8)))
+        self.gravity_cell_residual_ = np.ascontiguousarray(
+            _cell_max(np.where(ok, res, 0.0)))
+        self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum()),
+                               "total": int(st.size)}
+        if "gravity_holdout_force" in ds:
+            self.gravity_errors_ = gravity_holdout_errors(self, ds)
+            self.gravity_bond_max_ = self.gravity_errors_["bond_max_validated"]
+
+    def _gravity_lookup(self, g, t, v, volume):
+        """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
+        ``volume`` (lookup units), the cell's largest sum-rule residual and a code per
+        point: 0 available, 1 v outside the response's range (nearest v, approximate),
+        2 not available (a node of the cell has no response)."""
+        gv = self.gravity_v_
+        clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
+        vq = np.clip(v, gv[0], gv[-1])
+        loc = [ax.locate(np.asarray(x, float)) for ax, x in
+               zip(self.gravity_axes_, list(g) + [t, vq])]
+        idx, fr = [a[0] for a in loc], [a[1] for a in loc]
+        vals = self.gravity_grid_(idx, fr)
+        W = liquid_weight(volume)[:, None, None, None]
+        G = vals[:, :27].reshape(-1, 3, 3, 3) * W
+        C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
+        cell = tuple(idx)
+        bad = self.gravity_cell_bad_[cell] > 0
+        code = np.where(bad, 2, np.where(clipped, 1, 0)).astype(np.int8)
+        return G, C, self.gravity_cell_residual_[cell], code
+
+    def gravity_summary(self):
+        """The gravity content of the fitted table (JSON-friendly dict, or None): the
+        response's volume ratios, nodes with a response, the supported and validated
+        Bond ranges and the held-out errors (:func:`gravity_holdout_errors`)."""
+        self._check_fitted()
+        if not self.has_gravity_:
+            return None
+        e = self.gravity_errors_
+        out = {"gravity_v": self.gravity_v_.tolist(), "nodes": self.gravity_nodes_,
+               "bond_max_supported": BOND_MAX,
+               "bond_max_validated": float(self.gravity_bond_max_)}
+        if e is not None:
+            out["holdout"] = {k: e[k] for k in ("threshold", "threshold_source", "bonds",
+                                                "max_error_by_bond",
+                                                "max_effect_error_by_bond", "n_cases",
+                                                "n_cases_used")}
+        return out
+
     # ---------------------------------------------------------------------- vectors
-    def predict_vectors(self, centres, volume, theta, radii=None, unequal="harmonic_pair"):
+    def predict_vectors(self, centres, volume, theta, radii=None, unequal="harmonic_pair",
+                        bond=0.0, gravity=None):
         """Force vectors on the three grains in the caller's frame, from the centres.
 
         Parameters
@@ -929,16 +1029,40 @@ class TripletSurrogate:
         unequal : {"harmonic_pair", "pair", "harmonic", "arithmetic"}
             The unequal-radii approximation (:data:`UNEQUAL_SCHEMES`, compared in
             ``benchmarks/bench_triplet.py``); the default has the smallest error.
+        bond : array_like (...), default 0
+            Bond number Bo = drho g r^2 / gamma of the normalising radius r, in
+            [0, :data:`BOND_MAX`].  Bo = 0 gives exactly the answer without gravity.
+        gravity : array_like (..., 3), optional
+            Direction along which gravity pulls, in the frame of ``centres`` (any
+            length > 0); default (0, 0, -1).
 
         Returns
         -------
         dict
             ``forces`` (..., 3, 3): F_i = sum_j f_ij u_ij on each grain (u_ij the unit
-            vector from i to j; F* = F/(2 pi gamma r)); they sum to zero and have no
-            torque about the grain centres.  Also the pair forces ``f12``, ``f13``,
-            ``f23`` (F*), ``gaps`` (..., 3) = (d12, d13, d23) / r, and the other keys
-            of :meth:`predict` (pressure in gamma/r, energy in gamma r^2, volumes in
-            r^3; for unequal radii those of the lookup at R_h, status APPROXIMATE).
+            vector from i to j; F* = F/(2 pi gamma r)); without gravity they sum to zero
+            and have no torque about the grain centres.  Also the pair forces ``f12``,
+            ``f13``, ``f23`` (F*, without gravity), ``gaps`` (..., 3) = (d12, d13, d23)
+            / r, and the other keys of :meth:`predict` (pressure in gamma/r, energy in
+            gamma r^2, volumes in r^3; for unequal radii those of the lookup at R_h,
+            status APPROXIMATE).
+
+            With gravity (Bo > 0), b = Bo g_hat and, per grain (table frame of the
+            gaps, :func:`table_frame`, rotated into the caller's by Q)
+
+                F_i(b) = F_i(0) + Q (G_i b_t + C_i b_t^2 / 2),   b_t = Q^T b
+
+            (:func:`~capbridge.surrogate.gravity.triplet_gravity_forces`, G and C the
+            table's response interpolated on (gaps, theta, v)); ``forces`` then sum to
+            V*/(2 pi) b (the liquid's weight) up to ``gravity_sum_residual`` (relative,
+            the largest of the cell's nodes) and the second-order terms.  Extra keys:
+            ``gravity`` (..., 3) = b, ``gravity_first_order`` and
+            ``gravity_second_order`` (..., 3, 3) the two terms added to F_i(0),
+            ``gravity_sum_residual``.  Statuses: a cell of the response without a result
+            -> NOT_CONVERGED, no number; v outside the response's ``gravity_v`` range ->
+            the response at the nearest v, APPROXIMATE; Bo above the validated
+            ``gravity_bond_max_`` -> APPROXIMATE.  Bo above :data:`BOND_MAX` or a table
+            without a gravity response: CapbridgeInputError.
         """
         self._check_fitted()
         C = check_range("centres", centres)
@@ -996,9 +1120,67 @@ class TripletSurrogate:
             F[..., j, :] -= f[k][..., None] * u[(i, j)]
         res["forces"] = F
         res["gaps"] = gaps
+        if np.any(np.asarray(bond, float) != 0) or gravity is not None:
+            self._add_gravity(res, C, V, t, gaps, s, shape, bond, gravity)
         return res
 
-    def predict_si(self, radius, surface_tension, centres, volume, theta):
+    def _check_bond(self, bond):
+        bo = np.asarray(bond, float)
+        gravity_vector(bo, (0.0, 0.0, -1.0))            # Bo >= 0 and finite
+        if np.any(bo > BOND_MAX):
+            raise CapbridgeInputError(
+                f"Bond number Bo={float(bo.max())!r} is above the supported range [0, "
+                f"{BOND_MAX:g}] (the triplet table's gravity response is checked up to "
+                f"Bo = {BOND_MAX:g}); use Surface Evolver (capbridge solve triplet --bond)")
+        if np.any(bo > 0) and not self.has_gravity_:
+            raise CapbridgeInputError(
+                f"Bond number Bo={float(bo.max())!r}: this triplet table has no gravity "
+                "response (force_gravity_gradient); Bo must be 0 with it")
+        return bo
+
+    def _add_gravity(self, res, centres, V, t, gaps, s, shape, bond, gravity):
+        """Add the response to gravity to ``res`` (see :meth:`predict_vectors`)."""
+        bo = np.broadcast_to(self._check_bond(bond), shape)
+        direction = (0.0, 0.0, -1.0) if gravity is None else gravity
+        b = np.broadcast_to(gravity_vector(bo, direction), shape + (3,))
+        res["gravity"] = np.array(b)
+        F = res["forces"]
+        first = np.zeros(shape + (3, 3))
+        second = np.zeros(shape + (3, 3))
+        resid = np.zeros(shape)
+        status = np.array(res["status"], np.int8)
+        on = bo > 0
+        if on.any():
+            s = np.broadcast_to(s, shape)[on]
+            Q = table_frame(centres[on])                      # table -> caller
+            Vl = V[on] / s**3
+            g = [gaps[on][:, m] / s for m in range(3)]
+            G, Cv, resid_on, code = self._gravity_lookup(g, t[on], res["v"][on], Vl)
+            bt = np.einsum("nji,nj->ni", Q, b[on]) * (s**2)[:, None]   # lookup units
+            zero = np.zeros((bt.shape[0], 3, 3))
+            d1 = triplet_gravity_forces(zero, G, np.zeros_like(Cv), bt)
+            d2 = triplet_gravity_forces(zero, np.zeros_like(G), Cv, bt)
+            first[on] = np.einsum("nij,ngj->ngi", Q, d1) * s[:, None, None]
+            second[on] = np.einsum("nij,ngj->ngi", Q, d2) * s[:, None, None]
+            resid[on] = resid_on
+            st = status[on]
+            has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            approx = (code == 1) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
+            st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
+            st = np.where((code == 2) & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
+                          np.int8(Status.NOT_CONVERGED), st)
+            status[on] = st
+            nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
+            first[nores] = np.nan
+            second[nores] = np.nan
+        res["forces"] = np.where(on[..., None, None], F + first + second, F)
+        res["gravity_first_order"] = first
+        res["gravity_second_order"] = second
+        res["gravity_sum_residual"] = resid
+        res["status"] = status
+
+    def predict_si(self, radius, surface_tension, centres, volume, theta,
+                   density_difference=None, gravity=None):
         """Force vectors in newtons from SI inputs.
 
         Parameters
@@ -1014,13 +1196,21 @@ class TripletSurrogate:
             Total liquid volume [m^3].
         theta : array_like (...)
             Contact angle [deg].
+        density_difference : float, optional
+            drho = rho_liquid - rho_gas [kg/m^3]: gravity on the liquid.
+        gravity : array_like (3,), optional
+            Acceleration of gravity [m/s^2] in the frame of ``centres`` (default
+            (0, 0, -9.81) when ``density_difference`` is given).  Bo = drho |g| R_min^2
+            / gamma (:func:`capbridge.dimensionless.bond_number`), passed to
+            :meth:`predict_vectors`.
 
         Returns
         -------
         dict
-            ``forces`` (..., 3, 3) [N] on each grain, ``f12``, ``f13``, ``f23`` [N]
-            (attraction > 0), ``pressure`` [Pa], ``volume_coalescence`` [m^3],
-            ``gaps`` [m], ``force_error`` [N], ``status``.
+            ``forces`` (..., 3, 3) [N] on each grain (with gravity if asked),
+            ``f12``, ``f13``, ``f23`` [N] (attraction > 0, without gravity),
+            ``pressure`` [Pa], ``volume_coalescence`` [m^3], ``gaps`` [m],
+            ``force_error`` [N], ``status``; with gravity also ``bond``.
         """
         from capbridge.dimensionless import force_scale, pressure_scale
 
@@ -1035,9 +1225,15 @@ class TripletSurrogate:
         # a last axis of length 3 is one radius per grain; anything else one per triplet
         Rg = R if (R.ndim and R.shape[-1] == 3) else np.repeat(R[..., None], 3, -1)
         r = np.min(Rg, axis=-1)                              # normalising radius
+        kw = {}
+        if density_difference is not None or gravity is not None:
+            bond, direction = si_bond(r, gamma, 0.0 if density_difference is None
+                                      else density_difference,
+                                      (0.0, 0.0, -9.81) if gravity is None else gravity)
+            kw = {"bond": bond, "gravity": direction}
         try:
             res = self.predict_vectors(C / r[..., None, None], Vm / r**3, theta,
-                                       radii=Rg / r[..., None])
+                                       radii=Rg / r[..., None], **kw)
         except CapbridgeInputError as exc:
             raise CapbridgeInputError(
                 f"predict_si: {exc} (lengths / R_min, V* = volume [m^3] / R_min^3, R_min "
@@ -1049,6 +1245,8 @@ class TripletSurrogate:
                "gaps": res["gaps"] * r[..., None], "force_error": res["force_error"] * fs}
         for name in PAIR_NAMES:
             out[name] = res[name] * fs
+        if kw:
+            out["bond"] = np.asarray(kw["bond"])
         return out
 
 
@@ -1089,6 +1287,132 @@ def _combine_status(a, b):
     """Status of a point answered by several lookups (precedence :data:`_RANK`)."""
     a, b = np.asarray(a, np.int8), np.asarray(b, np.int8)
     return np.where(_RANK[b] > _RANK[a], b, a).astype(np.int8)
+
+
+# --------------------------------------------------------------------------------------
+# gravity: frames and the held-out validation
+# --------------------------------------------------------------------------------------
+
+
+def table_frame(centres):
+    """Rotation Q (..., 3, 3) from the table frame of a triplet to the caller's frame.
+
+    The table frame (:func:`capbridge.generator.triplet.triplet_geometry`) has grains 2
+    and 3 on the x axis (grain 3 at +x), grain 1 at z > 0 and the centres in the plane
+    y = 0.  The columns of Q are its axes in the caller's frame:
+
+        e_x = (c3 - c2) / |c3 - c2|,   e_z = the part of c1 - c2 normal to e_x, normalised,
+        e_y = e_z x e_x,
+
+    so a vector u_t of the table frame is Q u_t in the caller's, and det Q = +1.
+
+    Parameters
+    ----------
+    centres : array_like (..., 3, 3)
+        Centres of grains 1, 2, 3 (rows) in the caller's frame (any unit).
+
+    >>> from capbridge.generator.triplet import triplet_geometry
+    >>> np.allclose(table_frame(triplet_geometry(0.1, 0.05, 0.2).centres), np.eye(3))
+    True
+    """
+    c = np.asarray(centres, float)
+    ex = c[..., 2, :] - c[..., 1, :]
+    ex = ex / np.linalg.norm(ex, axis=-1, keepdims=True)
+    a = c[..., 0, :] - c[..., 1, :]
+    ez = a - np.sum(a * ex, -1, keepdims=True) * ex
+    ez = ez / np.linalg.norm(ez, axis=-1, keepdims=True)
+    ey = np.cross(ez, ex)
+    return np.stack([ex, ey, ez], -1)
+
+
+def gravity_holdout_errors(surrogate, table=None):
+    """Errors of the surrogate with gravity against the table's direct Evolver
+    minimisations with gravity (``gravity_holdout_*``), and the validated Bond range.
+
+    Each held-out case (gaps, theta, v, direction of gravity in the table frame) is
+    solved directly at every Bond number of the table (Bo = 0 included).  At each point
+    with a result:
+
+    * ``error``: max_i |F_i,model(b) - F_i,direct(b)| / max_i |F_i,direct(b)|, the model
+      being :meth:`TripletSurrogate.predict_vectors` at the case's total volume (table
+      and response: what a user gets);
+    * ``effect_error``: the same for the gravity effect alone, (F(b) - F(0)) of the
+      model (its response terms, i.e. F(0) taken as the direct Bo = 0 point of the
+      case on both sides) against F_direct(b) - F_direct(0), relative to the same
+      largest grain force.
+
+    ``threshold`` is the surrogate's own held-out error without gravity
+    (``interpolation_error_['max_rel_to_largest']``: pair forces relative to the
+    largest pair force of the point; NaN without held-out points, then nothing is
+    validated); ``bond_max_validated`` the largest held-out Bo such that at every Bo up
+    to it every used case has ``error`` <= threshold (0 if none).
+
+    Returns
+    -------
+    dict
+        ``bond``, ``orientation``, ``case`` (index of the case), ``error``,
+        ``effect_error``, ``used`` (arrays over the held-out points); ``bonds``,
+        ``max_error_by_bond``, ``max_effect_error_by_bond`` (lists, NaN where no case
+        answered), ``threshold``, ``threshold_source``, ``bond_max_validated``,
+        ``n_cases``, ``n_cases_used``.
+    """
+    from capbridge.generator.triplet import triplet_geometry
+
+    ds = surrogate.table_ if table is None else table
+    h = {k: np.asarray(ds[f"gravity_holdout_{k}"].values) for k in
+         ("d12", "d13", "d23", "theta", "v", "volume", "bond", "status")}
+    direction = np.asarray(ds["gravity_holdout_direction"].values, float)
+    Fd = np.asarray(ds["gravity_holdout_force"].values, float)
+    orient = np.asarray(ds["gravity_holdout_orientation"].values).astype(str)
+    n = h["bond"].size
+    key = [tuple(np.round([h["d12"][k], h["d13"][k], h["d23"][k], h["theta"][k], h["v"][k],
+                           *direction[k]], 9)) for k in range(n)]
+    cases = {k: i for i, k in enumerate(dict.fromkeys(key))}
+    case = np.array([cases[k] for k in key])
+    okd = np.isin(h["status"], [int(x) for x in HAS_RESULT]) & np.isfinite(Fd).all((1, 2))
+    err = np.full(n, np.nan)
+    eff = np.full(n, np.nan)
+    keep = surrogate.out_of_range
+    surrogate.out_of_range = "clip"
+    try:
+        for k in range(n):
+            zero = np.flatnonzero((case == case[k]) & (h["bond"] == 0) & okd)
+            if not okd[k]:
+                continue
+            cen = triplet_geometry(h["d12"][k], h["d13"][k], h["d23"][k]).centres
+            bo = min(float(h["bond"][k]), BOND_MAX)
+            r = surrogate.predict_vectors(cen, float(h["volume"][k]), float(h["theta"][k]),
+                                          bond=bo, gravity=direction[k]
+                                          if np.any(direction[k]) else None)
+            if not np.isin(r["status"], HAS_RESULT + (Status.EXTRAPOLATED,)):
+                continue
+            scale = np.max(np.linalg.norm(Fd[k], axis=-1))
+            err[k] = np.max(np.abs(r["forces"] - Fd[k])) / scale
+            if zero.size:
+                model = r.get("gravity_first_order", 0.0) + r.get("gravity_second_order", 0.0)
+                eff[k] = np.max(np.abs(model - (Fd[k] - Fd[zero[0]]))) / scale
+    finally:
+        surrogate.out_of_range = keep
+    ie = surrogate.interpolation_error_
+    thr = float(ie["max_rel_to_largest"]) if ie else np.nan
+    bonds = sorted(set(float(b) for b in h["bond"]))
+    used = np.isfinite(err)
+    by = [float(np.max(err[used & (h["bond"] == b)])) if np.any(used & (h["bond"] == b))
+          else np.nan for b in bonds]
+    eby = [float(np.nanmax(eff[used & (h["bond"] == b)]))
+           if np.any(used & (h["bond"] == b) & np.isfinite(eff)) else np.nan for b in bonds]
+    bmax = 0.0
+    for b, e in zip(bonds, by):
+        if not (np.isfinite(e) and e <= thr):
+            break
+        bmax = b
+    return {"bond": h["bond"].astype(float), "orientation": orient, "case": case,
+            "error": err, "effect_error": eff, "used": used, "bonds": bonds,
+            "max_error_by_bond": by, "max_effect_error_by_bond": eby, "threshold": thr,
+            "threshold_source": "held-out pair forces without gravity, max error relative "
+                                "to the largest pair force (holdout_errors)",
+            "bond_max_validated": float(bmax), "n_cases": len(cases),
+            "n_cases_used": int(len(set(case[used].tolist())))}
 
 
 # --------------------------------------------------------------------------------------

@@ -1,0 +1,381 @@
+"""Gravity on the liquid in the doublet and triplet surrogates (issue 10).
+
+The shipped tables may not carry their gravity response yet: the checks of the lookup
+machinery run on the shipped zero-gravity tables with a synthetic response of the same
+layout added (random numbers with the structure the generators guarantee: the triplet's
+gradients sum over the grains to the weight up to a stored residual).  The check
+against the held-out direct Evolver minimisations runs when the shipped triplet table
+has them.
+"""
+import numpy as np
+import pytest
+import xarray as xr
+
+from capbridge.cli import DEFAULT_COALESCENCE_TABLE, DEFAULT_TABLE, DEFAULT_TRIPLET_TABLE
+from capbridge.dimensionless import bond_number
+from capbridge.generator.netcdf_io import read_table
+from capbridge.generator.triplet import triplet_geometry
+from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.doublet import BOND_MAX, DoubletSurrogate
+from capbridge.surrogate.gravity import liquid_weight
+from capbridge.surrogate.triplet import TripletSurrogate, table_frame
+from capbridge.validation import CapbridgeInputError
+
+needs_tables = pytest.mark.skipif(not (DEFAULT_TABLE.exists() and DEFAULT_TRIPLET_TABLE.exists()),
+                                  reason="shipped tables missing")
+pytestmark = needs_tables
+
+#: relative residual of the sum rule written into the synthetic triplet response
+SYNTHETIC_RESIDUAL = 0.02
+
+
+# ----------------------------------------------------------------------------- tables
+def synthetic_triplet_table(seed=0, fail_node=False):
+    """The shipped triplet table with a synthetic gravity response (same layout as
+    :func:`capbridge.generator.triplet_table._gravity_dataset`) and no held-out gravity
+    points.  G_i = W_node (S_i + E_i) with sum_i S_i = I and |sum_i E_i| bounded by
+    SYNTHETIC_RESIDUAL (stored as gravity_sum_residual); C random."""
+    ds = read_table(DEFAULT_TRIPLET_TABLE)
+    drop = [n for n in ds.variables if "gravity" in str(n)]
+    ds = ds.drop_vars(drop)
+    ds.attrs.pop("data_sha256", None)
+    rng = np.random.default_rng(seed)
+    gv = np.array([0.85, 1.25, 2.0])
+    shape = (ds.sizes["d12"], ds.sizes["d13"], ds.sizes["d23"], ds.sizes["theta"], gv.size)
+    S = rng.uniform(0.1, 0.5, shape + (3, 3, 3))
+    S -= (S.sum(axis=5, keepdims=True) - np.eye(3)) / 3.0       # sum over grains = I
+    E = rng.uniform(-1, 1, shape + (3, 3, 3)) * SYNTHETIC_RESIDUAL / 3.0
+    resid = np.abs(E.sum(axis=5)).max(axis=(-2, -1))
+    W = liquid_weight(ds["volume_coalescence"].values[..., None] * gv)
+    G = W[..., None, None, None] * (S + E)
+    C = rng.normal(0, 0.01, shape + (3, 3, 3))
+    status = np.zeros(shape, np.int8)
+    if fail_node:
+        status[1, 1, 1, 2, 1] = Status.NOT_CONVERGED
+    dims = ("d12", "d13", "d23", "theta", "gravity_v")
+    tdims = dims + ("grain", "component", "gravity_component")
+    one = {"units": "1", "long_name": "synthetic"}
+    add = xr.Dataset(
+        {"force_gravity_gradient": (tdims, G, one), "force_gravity_curvature": (tdims, C, one),
+         "gravity_sum_residual": (dims, resid, one),
+         "gravity_status": (dims, status, {"long_name": "status"})},
+        coords={"gravity_v": ("gravity_v", gv, one),
+                "gravity_component": ("gravity_component", np.arange(3, dtype=np.int8), one)})
+    return xr.merge([ds, add], combine_attrs="override")
+
+
+def synthetic_doublet_table():
+    """The shipped doublet table with a synthetic response: the weight share of grain 1
+    (1/2 for equal grains), a curvature, and rupture distances with gravity along the
+    axis (shorter with grain 1 below, longer with it above)."""
+    ds = read_table(DEFAULT_TABLE)
+    ds.attrs.pop("data_sha256", None)
+    ratio = ds["ratio"].values
+    share = 0.5 / ratio ** 0.3                     # any smooth share; exactly 1/2 at ratio 1
+    shape = tuple(ds.sizes[d] for d in ("ratio", "theta", "volume", "s"))
+    w = np.broadcast_to(share[:, None, None, None], shape).copy()
+    c = -0.02 * np.broadcast_to(ds["volume"].values[None, None, :, None], shape).copy()
+    bonds = np.array([0.5, 1.0, 2.5])
+    axes = np.array([-1.0, 1.0])
+    rup = ds["rupture_gap"].values[..., None, None] * \
+        (1.0 + 0.04 * bonds[:, None] * axes[None, :])
+    one = {"units": "1", "long_name": "synthetic"}
+    add = xr.Dataset(
+        {"weight_share_axial": (("ratio", "theta", "volume", "s"), w, one),
+         "force_gravity_curvature_axial": (("ratio", "theta", "volume", "s"), c, one),
+         "gravity_status": (("ratio", "theta", "volume", "s"), np.zeros(shape, np.int8),
+                            {"long_name": "status"}),
+         "rupture_gap_gravity": (("ratio", "theta", "volume", "bond", "gravity_axis"), rup,
+                                 one)},
+        coords={"bond": ("bond", bonds, one), "gravity_axis": ("gravity_axis", axes, one)})
+    return xr.merge([ds, add], combine_attrs="override")
+
+
+#: error (relative to the largest grain force) put on the synthetic held-out points,
+#: per Bond number: the validated range must end before the first one above the
+#: surrogate's own held-out error (about 2 % for the shipped table)
+SYNTHETIC_HOLDOUT_ERROR = {0.0: 0.0, 0.05: 1e-4, 0.5: 1e-3, 2.14: 5e-3, 2.5: 0.2}
+
+
+def add_synthetic_holdout(ds, surrogate):
+    """``ds`` with held-out gravity points (layout of
+    :func:`capbridge.generator.triplet_table._gravity_holdout_dataset`) whose 'direct'
+    forces are ``surrogate``'s own answer plus SYNTHETIC_HOLDOUT_ERROR times the largest
+    grain force on every component."""
+    from capbridge.generator.triplet_gravity import HOLDOUT_CASES
+
+    rows, F = [], []
+    for gaps, theta, v, name, direction in HOLDOUT_CASES:
+        cen = triplet_geometry(*gaps).centres
+        vol = v * float(surrogate.coalescence_volume(*gaps, theta)["volume_coalescence"])
+        for bo, err in SYNTHETIC_HOLDOUT_ERROR.items():
+            r = surrogate.predict_vectors(cen, vol, theta, bond=bo, gravity=direction)
+            scale = np.max(np.linalg.norm(r["forces"], axis=-1))
+            rows.append((*gaps, theta, v, vol, bo, *direction, name))
+            F.append(r["forces"] + err * scale)
+    a = np.array([r[:10] for r in rows], float)
+    one = {"units": "1", "long_name": "synthetic"}
+    dim = ("gravity_holdout",)
+    hv = {f"gravity_holdout_{k}": (dim, a[:, i], one) for i, k in
+          enumerate(("d12", "d13", "d23", "theta", "v", "volume", "bond"))}
+    hv["gravity_holdout_direction"] = (dim + ("component",), a[:, 7:10], one)
+    hv["gravity_holdout_orientation"] = (dim, np.array([r[10] for r in rows], object), one)
+    hv["gravity_holdout_force"] = (dim + ("grain", "component"), np.array(F), one)
+    hv["gravity_holdout_status"] = (dim, np.zeros(len(rows), np.int8), {"long_name": "s"})
+    return xr.merge([ds, xr.Dataset(hv)], combine_attrs="override")
+
+
+@pytest.fixture(scope="module")
+def tsur():
+    return TripletSurrogate().fit(synthetic_triplet_table(),
+                                  coalescence_table=DEFAULT_COALESCENCE_TABLE)
+
+
+@pytest.fixture(scope="module")
+def dsur():
+    return DoubletSurrogate().fit(synthetic_doublet_table())
+
+
+def _rotation(seed):
+    q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+# ---------------------------------------------------------------------------- triplet
+CENTRES = triplet_geometry(0.05, 0.12, 0.15).centres
+V, THETA = 0.35, 30.0
+
+
+def test_table_frame_is_the_rotation_onto_the_caller():
+    Q = _rotation(1)
+    c = CENTRES @ Q.T + np.array([3.0, -1.0, 2.0])
+    R = table_frame(c)
+    np.testing.assert_allclose(R, Q, atol=1e-12)
+    np.testing.assert_allclose(table_frame(CENTRES), np.eye(3), atol=1e-12)
+
+
+def test_triplet_bond_zero_is_the_zero_gravity_answer(tsur):
+    r0 = tsur.predict_vectors(CENTRES, V, THETA)
+    r = tsur.predict_vectors(CENTRES, V, THETA, bond=0.0, gravity=(1.0, 2.0, 3.0))
+    assert np.array_equal(r["forces"], r0["forces"])
+    assert r["status"] == r0["status"]
+    # and continuously: Bo -> 0 tends to it, linearly
+    small = [tsur.predict_vectors(CENTRES, V, THETA, bond=b)["forces"] - r0["forces"]
+             for b in (1e-4, 2e-4)]
+    assert np.max(np.abs(small[0])) > 0
+    np.testing.assert_allclose(small[1], 2 * small[0], rtol=1e-3, atol=1e-12)
+
+
+@pytest.mark.parametrize("bond, direction", [(0.5, (0, 0, -1)), (2.14, (1, 0, 0)),
+                                             (2.5, (1, 1, -1))])
+def test_triplet_sum_rule(tsur, bond, direction):
+    r0 = tsur.predict_vectors(CENTRES, V, THETA)
+    r = tsur.predict_vectors(CENTRES, V, THETA, bond=bond, gravity=direction)
+    assert r["status"] in HAS_RESULT
+    W = V / (2 * np.pi)
+    b = bond * np.asarray(direction, float) / np.linalg.norm(direction)
+    np.testing.assert_allclose(r["gravity"], b, rtol=1e-12)
+    first = r["gravity_first_order"].sum(axis=0)
+    # the grains carry the weight at first order, to the stored residual of the cell
+    assert np.max(np.abs(first - W * b)) <= r["gravity_sum_residual"] * W * bond + 1e-12
+    assert r["gravity_sum_residual"] <= SYNTHETIC_RESIDUAL
+    total = r["forces"] - r0["forces"]
+    np.testing.assert_allclose(total, r["gravity_first_order"] + r["gravity_second_order"],
+                               atol=1e-12)
+
+
+def test_triplet_rotating_the_frame_rotates_the_answer(tsur):
+    Q = _rotation(7)
+    g = np.array([0.3, -0.2, -1.0])
+    r = tsur.predict_vectors(CENTRES, V, THETA, bond=1.3, gravity=g)
+    rq = tsur.predict_vectors(CENTRES @ Q.T + 5.0, V, THETA, bond=1.3, gravity=Q @ g)
+    np.testing.assert_allclose(rq["forces"], r["forces"] @ Q.T, atol=1e-12)
+    # the same gravity without rotating the grains is another answer
+    other = tsur.predict_vectors(CENTRES, V, THETA, bond=1.3, gravity=Q @ g)
+    assert np.max(np.abs(other["forces"] - r["forces"])) > 1e-6
+
+
+def test_triplet_response_status(tsur):
+    # v below gravity_v (at 60 deg the table has the body there)
+    vc = tsur.coalescence_volume(0.05, 0.12, 0.15, 60.0)["volume_coalescence"]
+    far = tsur.predict_vectors(CENTRES, 0.75 * vc, 60.0, bond=1.0)
+    r = tsur.predict_vectors(CENTRES, V, THETA, bond=0.01)
+    assert tsur.v_[0] < far["v"] < tsur.gravity_v_[0]
+    assert far["status"] == Status.APPROXIMATE
+    assert np.all(np.isfinite(far["forces"]))
+    # no held-out gravity points in the synthetic table: nothing is validated above 0
+    assert tsur.gravity_bond_max_ == 0.0
+    assert r["status"] == Status.APPROXIMATE
+    with pytest.raises(CapbridgeInputError, match=r"Bo=2\.6.*\[0, 2\.5\]"):
+        tsur.predict_vectors(CENTRES, V, THETA, bond=2.6)
+    with pytest.raises(CapbridgeInputError, match=r"Bo=-0\.1"):
+        tsur.predict_vectors(CENTRES, V, THETA, bond=-0.1)
+    with pytest.raises(CapbridgeInputError, match="non-zero"):
+        tsur.predict_vectors(CENTRES, V, THETA, bond=1.0, gravity=(0, 0, 0))
+
+
+def test_triplet_validated_bond_range_from_held_out_points(tsur):
+    ds = add_synthetic_holdout(synthetic_triplet_table(), tsur)
+    sur = TripletSurrogate().fit(ds, coalescence_table=DEFAULT_COALESCENCE_TABLE)
+    e = sur.gravity_errors_
+    thr = sur.interpolation_error_["max_rel_to_largest"]
+    assert e["threshold"] == thr and 5e-3 < thr < 0.2
+    assert e["n_cases"] == e["n_cases_used"] == 5 and e["used"].all()
+    for b, err, eff in zip(e["bonds"], e["max_error_by_bond"], e["max_effect_error_by_bond"]):
+        # the offset was x max|F_model| on every component; measured relative to
+        # max|F_direct|, which the offset changes by at most sqrt(3) x max|F_model|
+        x = SYNTHETIC_HOLDOUT_ERROR[b]
+        assert x / (1 + 2 * x) - 1e-12 <= err <= x / (1 - 2 * x) + 1e-12
+        # the effect alone: the direct Bo = 0 point has no offset, so the same
+        assert eff == pytest.approx(err, rel=1e-9, abs=1e-12)
+    assert sur.gravity_bond_max_ == 2.14
+    r = sur.predict_vectors(CENTRES, V, THETA, bond=2.14)
+    assert r["status"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE)
+    assert sur.predict_vectors(CENTRES, V, THETA, bond=2.2)["status"] == Status.APPROXIMATE
+    summary = sur.summary()["gravity"]
+    assert summary["bond_max_validated"] == 2.14 and summary["holdout"]["n_cases"] == 5
+
+
+def test_triplet_failed_response_node_gives_no_number():
+    sur = TripletSurrogate(method="linear").fit(synthetic_triplet_table(fail_node=True))
+    # the failed node: d = 0.1, 0.1, 0.1, theta 40, v = 1.25; a point in a cell touching it
+    c = triplet_geometry(0.12, 0.11, 0.09).centres
+    vc = sur.coalescence_volume(0.12, 0.11, 0.09, 45.0)["volume_coalescence"]
+    r0 = sur.predict_vectors(c, 1.1 * vc, 45.0)
+    r = sur.predict_vectors(c, 1.1 * vc, 45.0, bond=1.0)
+    assert r0["status"] in HAS_RESULT
+    assert r["status"] == Status.NOT_CONVERGED
+    assert np.all(np.isnan(r["forces"]))
+
+
+def test_triplet_predict_si_bond(tsur):
+    R, gamma, drho = 1e-3, 0.072, 997.0
+    g = np.array([0.0, -9.81, 0.0])
+    si = tsur.predict_si(R, gamma, CENTRES * R, V * R**3, THETA, density_difference=drho,
+                         gravity=g)
+    bo = bond_number(R, gamma, drho, 9.81)
+    r = tsur.predict_vectors(CENTRES, V, THETA, bond=bo, gravity=g)
+    assert float(si["bond"]) == pytest.approx(bo, rel=1e-12)
+    np.testing.assert_allclose(si["forces"], r["forces"] * 2 * np.pi * gamma * R, rtol=1e-10)
+    with pytest.raises(CapbridgeInputError, match="density_difference"):
+        tsur.predict_si(R, gamma, CENTRES * R, V * R**3, THETA, density_difference=1e6)
+
+
+def test_triplet_gravity_needs_a_response():
+    sur = TripletSurrogate(method="linear").fit(DEFAULT_TRIPLET_TABLE)
+    if sur.has_gravity_:
+        pytest.skip("the shipped table has its gravity response")
+    with pytest.raises(CapbridgeInputError, match="no gravity response"):
+        sur.predict_vectors(CENTRES, V, THETA, bond=1.0)
+
+
+def test_triplet_reproduces_held_out_gravity_points():
+    ds = read_table(DEFAULT_TRIPLET_TABLE)
+    if "gravity_holdout_force" not in ds:
+        pytest.skip("the shipped triplet table has no held-out gravity points yet")
+    sur = TripletSurrogate().fit(ds, coalescence_table=DEFAULT_COALESCENCE_TABLE)
+    e = sur.gravity_errors_
+    assert e["n_cases_used"] >= 1
+    ok = e["used"] & (e["bond"] <= sur.gravity_bond_max_)
+    # the surrogate's own held-out error (no gravity) bounds every validated point ...
+    assert np.all(e["error"][ok] <= e["threshold"])
+    # ... and gravity at the smallest Bond number of the issue (1 mm grains) is validated
+    assert sur.gravity_bond_max_ >= 0.05
+
+
+# ---------------------------------------------------------------------------- doublet
+def test_doublet_bond_zero_is_the_table(dsur):
+    gap, vol, th = np.array([0.0, 0.05, 0.2]), np.array([0.01, 0.05, 0.1]), 30.0
+    r0 = dsur.predict(gap, vol, th)
+    r = dsur.predict_vectors(gap, vol, th, bond=0.0, gravity=(0, 1, 0))
+    assert np.array_equal(r["F1"][:, 0], r0["force"])
+    assert np.array_equal(r["F2"][:, 0], -r0["force"])
+    assert np.all(r["F1"][:, 1:] == 0) and np.array_equal(r["status"], r0["status"])
+
+
+@pytest.mark.parametrize("direction", [(0, 0, -1), (0.6, 0, -0.8), (-1, 0, 0), (0.3, 0.5, 0.2)])
+def test_doublet_weight_shares(dsur, direction):
+    gap, vol, th, bo = 0.05, 0.05, 30.0, 2.14
+    r = dsur.predict_vectors(gap, vol, th, bond=bo, gravity=direction)
+    W = vol / (2 * np.pi)
+    b = bo * np.asarray(direction, float) / np.linalg.norm(direction)
+    np.testing.assert_allclose(r["F1"] + r["F2"], W * b, atol=1e-12)        # sum rule
+    # equal grains: each carries half of the transverse weight
+    np.testing.assert_allclose(r["F1"][1:], W * b[1:] / 2, atol=1e-12)
+    np.testing.assert_allclose(r["F2"][1:], W * b[1:] / 2, atol=1e-12)
+    assert r["share"] == pytest.approx(0.5, abs=1e-12)
+    F0 = dsur.predict(gap, vol, th)["force"]
+    c = r["curvature"]
+    assert c < 0
+    assert r["F1"][0] == pytest.approx(F0 + W * 0.5 * b[0] + 0.5 * c * b[0] ** 2, rel=1e-12)
+
+
+def test_doublet_unequal_grains_use_the_table_share(dsur):
+    r = dsur.predict_vectors(0.05, 0.05, 30.0, ratio=2.0, bond=1.0, gravity=(-1, 0, 0))
+    W = 0.05 / (2 * np.pi)
+    w = 0.5 / 2.0 ** 0.3
+    assert r["share"] == pytest.approx(w, rel=1e-9)
+    F0 = dsur.predict(0.05, 0.05, 30.0, 2.0)["force"]
+    assert r["F1"][0] == pytest.approx(F0 - W * w + 0.5 * r["curvature"], rel=1e-9)
+    assert r["F2"][0] == pytest.approx(-F0 - W * (1 - w) - 0.5 * r["curvature"], rel=1e-9)
+
+
+def test_doublet_rupture_with_gravity(dsur):
+    vol, th = 0.05, 30.0
+    d0 = float(dsur.predict(0.0, vol, th)["rupture_gap"])
+    # synthetic table: d_rupt(Bo) = d0 (1 + 0.04 Bo axis) at the bond nodes
+    below = dsur.predict_vectors(0.0, vol, th, bond=1.0, gravity=(-1, 0, 0))
+    above = dsur.predict_vectors(0.0, vol, th, bond=1.0, gravity=(1, 0, 0))
+    assert below["rupture_gap"] == pytest.approx(d0 * 0.96, rel=1e-3)
+    assert above["rupture_gap"] == pytest.approx(d0 * 1.04, rel=1e-3)
+    # gravity ruptures earlier: RUPTURED, no force
+    r = dsur.predict_vectors(0.98 * d0, vol, th, bond=1.0, gravity=(-1, 0, 0))
+    assert r["status"] == Status.RUPTURED and np.all(r["F1"] == 0) and np.all(r["F2"] == 0)
+    # beyond the zero-gravity rupture but inside the one with gravity: no state in the table
+    r = dsur.predict_vectors(1.02 * d0, vol, th, bond=1.0, gravity=(1, 0, 0))
+    assert r["status"] == Status.OUT_OF_RANGE and np.all(np.isnan(r["F1"]))
+    # beyond both
+    r = dsur.predict_vectors(1.06 * d0, vol, th, bond=1.0, gravity=(1, 0, 0))
+    assert r["status"] == Status.RUPTURED
+    # between Bo = 0 and the first bond node (0.5): linear from the zero-gravity value
+    r = dsur.predict_vectors(0.0, vol, th, bond=0.25, gravity=(1, 0, 0))
+    assert r["rupture_gap"] == pytest.approx(d0 * (1 + 0.04 * 0.5 / 2), rel=1e-3)
+    # transverse gravity near rupture: approximate; well inside: converged
+    near = dsur.predict_vectors(0.95 * d0, vol, th, bond=1.0, gravity=(0, 0, -1))
+    inside = dsur.predict_vectors(0.5 * d0, vol, th, bond=1.0, gravity=(0, 0, -1))
+    assert near["status"] == Status.APPROXIMATE and np.all(np.isfinite(near["F1"]))
+    assert inside["status"] == Status.CONVERGED
+
+
+def test_doublet_bad_bond(dsur):
+    with pytest.raises(CapbridgeInputError, match=r"Bo=3\.0.*\[0, 2\.5\]"):
+        dsur.predict_vectors(0.05, 0.05, 30.0, bond=3.0)
+    with pytest.raises(CapbridgeInputError, match="non-zero"):
+        dsur.predict_vectors(0.05, 0.05, 30.0, bond=1.0, gravity=(0, 0, 0))
+    plain = DoubletSurrogate().fit(DEFAULT_TABLE)
+    if not plain.has_gravity():
+        with pytest.raises(CapbridgeInputError, match="no gravity response"):
+            plain.predict_vectors(0.05, 0.05, 30.0, bond=1.0)
+    assert BOND_MAX == 2.5
+
+
+def test_doublet_predict_si_bond_and_grain_order(dsur):
+    R1, R2, gamma, drho = 1e-3, 2e-3, 0.072, 997.0
+    g = (-0.6 * 9.81, 0.0, -0.8 * 9.81)   # grain 1 (the small one) lower than grain 2
+    si = dsur.predict_si(R1, R2, gamma, 5e-5, 5e-11, 30.0, density_difference=drho, gravity=g)
+    bo = bond_number(R1, gamma, drho, 9.81)
+    r = dsur.predict_vectors(0.05, 0.05, 30.0, 2.0, bond=bo, gravity=g)
+    fs = 2 * np.pi * gamma * R1
+    np.testing.assert_allclose(si["F1"], r["F1"] * fs, rtol=1e-9)
+    np.testing.assert_allclose(si["F2"], r["F2"] * fs, rtol=1e-9)
+    # the same pair given in the other order: grain 1 is now the large one, the frame's
+    # x axis points from it to the small one (x mirrored, y and z kept)
+    m = np.array([-1.0, 1.0, 1.0])
+    sw = dsur.predict_si(R2, R1, gamma, 5e-5, 5e-11, 30.0, density_difference=drho,
+                         gravity=np.array(g) * m)
+    np.testing.assert_allclose(sw["F1"], si["F2"] * m, rtol=1e-9)
+    np.testing.assert_allclose(sw["F2"], si["F1"] * m, rtol=1e-9)
+    assert abs(si["F1"][2]) > 0
+    with pytest.raises(CapbridgeInputError, match="gravity"):
+        dsur.predict_si(R1, R2, gamma, 5e-5, 5e-11, 30.0, density_difference=drho,
+                        gravity=(1e4, 0, 0))
