@@ -138,6 +138,29 @@ def test_on_and_off_override_the_decision():
 
 
 @pytest.mark.yade
+def test_auto_corrects_each_bridge_on_its_own_size():
+    """A 1 mm pair (Bo 0.13) and a 0.1 mm pair (Bo 1.3e-3) in one scene: 'auto' applies
+    the correction (the 1 mm bridge is above the table error) to the 1 mm bridge only;
+    the 0.1 mm pair keeps its zero-gravity forces bit for bit."""
+    _skip_without_yade()
+    res = _run("--radius", 1e-3, "--pair2", 1e-4, "--mode", "auto", "--steps", 30)
+    ref = _run("--radius", 1e-3, "--pair2", 1e-4, "--gravity", "none", "--steps", 30)
+    st = res["gravity_state"]
+    assert "applied to each bridge" in _startup_line(res)
+    assert st["applied"] and st["bridges_corrected"] == 1
+    assert all(r["n_bridges"] == 2 for r in res["rows"])
+    f0, f1 = _forces(res["rows"])
+    r0, r1 = _forces(ref["rows"])
+    W = res["liquid_density"] * res["vstar"] * res["radius"] ** 3 * G
+    np.testing.assert_allclose(f0 + f1, np.broadcast_to(W, f0.shape), rtol=0,
+                               atol=1e-9 * np.linalg.norm(W))
+    np.testing.assert_allclose(f0 - r0, np.broadcast_to(W / 2, f0.shape), rtol=0,
+                               atol=1e-9 * np.linalg.norm(W))
+    np.testing.assert_array_equal(np.array([r["f_pair2"] for r in res["rows"]]),
+                                  np.array([r["f_pair2"] for r in ref["rows"]]))
+
+
+@pytest.mark.yade
 def test_gravity_changed_mid_run_is_followed():
     """The user sets another (oblique) gravity at iter 15: the forces follow it
     from that step, a line says so, and the NewtonIntegrator keeps the user's value."""
@@ -231,6 +254,12 @@ def test_unequal_grains_sum_to_the_weight_and_share_by_the_smaller_grain():
 def test_bad_liquid_density_and_mode_are_one_line_errors():
     from capbridge.dem_plugin.engine import CapbridgeEngine
     from capbridge.validation import CapbridgeInputError
+
+    # the default: water, 1000 kg/m^3 for water_content (as before), 997 for the weight
+    eng = CapbridgeEngine(water_content=0.01, label="rho_default")
+    assert (eng.liquid_density, eng.gravity.drho) == (1000.0, DEFAULT_LIQUID_DENSITY)
+    eng = CapbridgeEngine(water_content=0.01, liquid_density=1260.0, label="rho_given")
+    assert (eng.liquid_density, eng.gravity.drho) == (1260.0, 1260.0)
 
     with pytest.raises(CapbridgeInputError) as exc:
         CapbridgeEngine(bridge_volume_star=0.05, liquid_density=-3.0, label="bad_rho")

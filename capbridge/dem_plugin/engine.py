@@ -508,6 +508,7 @@ class CapbridgeEngine:
         self.model = None
         self.clusters = None
         self._live = None
+        self.gravity.g = None                 # decided again at the next step
         try:
             yade, _ = _yade()
             O = yade.Omega()

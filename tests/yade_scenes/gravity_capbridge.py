@@ -10,7 +10,8 @@ along a skew axis (1, 2, 2)/3 and moves away so that the gap grows to 0.2 R in
 not rupture).  ``--gravity none`` puts no gravity in NewtonIntegrator.  Every row has
 the force YADE holds on each sphere after the step (O.forces), the gap and the bridge
 volume.  ``--change-at K``: before step K the NewtonIntegrator's gravity is set to
-``--gravity2`` (the user changes it mid-run).  ``--restart``: O.saveTmp after
+``--gravity2`` (the user changes it mid-run).  ``--pair2 R2``: a second pair of beads
+of radius R2 (bodies 2, 3), 5 cm away, driven the same way (rows: ``f_pair2``).  ``--restart``: O.saveTmp after
 ``steps // 2`` steps, the remaining steps recorded, O.loadTmp, the same steps recorded
 again.  ``--save FILE``: O.save after ``steps // 2`` steps, the remaining steps
 recorded; ``--load FILE`` (a new process): O.load, no engine made, the remaining steps
@@ -42,6 +43,8 @@ cli.add_argument("--tolerance", type=float, default=0.0)
 cli.add_argument("--refresh", type=int, default=1)
 cli.add_argument("--save", default=None, help="O.save to this file after steps // 2 steps")
 cli.add_argument("--load", default=None, help="O.load this file (no engine made here)")
+cli.add_argument("--pair2", type=float, default=None,
+                 help="radius of a second pair of beads, 5 cm away, driven the same way")
 cli.add_argument("--rho", type=float, default=None, help="liquid_density [kg/m^3] (default: "
                  "the engine's)")
 cfg = cli.parse_args(sys.argv[1:])
@@ -67,6 +70,12 @@ else:
                                       material=glass))
     O.dt = 1e-6
     O.bodies[b1].state.vel = Vector3(*((0.18 * R / (cfg.steps * O.dt)) * axis))
+    if cfg.pair2:
+        R2, shift = cfg.pair2, np.array([0.05, 0.0, 0.0])
+        b2 = O.bodies.append(utils.sphere(tuple(shift), R2, fixed=True, material=glass))
+        b3 = O.bodies.append(utils.sphere(tuple(shift + (2.02 * R2) * axis), R2, fixed=True,
+                                          material=glass))
+        O.bodies[b3].state.vel = Vector3(*((0.18 * R2 / (cfg.steps * O.dt)) * axis))
     newton = NewtonIntegrator(damping=0.0)
     if cfg.gravity != "none":
         newton.gravity = tuple(yade_runtime.float_list(cfg.gravity))
@@ -86,7 +95,9 @@ def row():
             "f1": [float(x) for x in O.forces.f(b1)],
             "gap": float((p1 - p0).norm()) - 2 * R, "n_bridges": m.n_bridges,
             "volume": float(m.vol.sum()),
-            "gravity": [float(x) for x in newton.gravity]}
+            "gravity": [float(x) for x in newton.gravity],
+            "f_pair2": ([[float(x) for x in O.forces.f(i)] for i in (2, 3)]
+                        if len(O.bodies) > 3 else None)}
 
 
 def run(n):
