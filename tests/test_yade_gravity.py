@@ -14,7 +14,12 @@ NewtonIntegrator.
 * gravity_correction="on" / "off" override the decision;
 * a gravity the user changes mid-run is followed and never overwritten;
 * O.saveTmp / O.loadTmp give the same forces bit for bit, forces added every step or
-  held as permanent forces.
+  held as permanent forces; O.save / O.load in a new process keep the settings;
+* 'auto' decides bridge by bridge (a 1 mm and a 0.1 mm pair in one scene);
+* with tables that carry a gravity response (the synthetic responses of
+  tests/test_gravity_surrogate.py; the shipped tables have none yet): a bridge's w and c
+  are the doublet surrogate's, a coalesced triplet gets the triplet surrogate's
+  response rotated into the scene (plain numpy and in YADE).
 """
 from __future__ import annotations
 
@@ -24,10 +29,12 @@ import numpy as np
 import pytest
 
 from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.status import Status
 from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY,
                                                  bridge_gravity_forces, relative_correction)
 
 SCENE = Path(__file__).parent / "yade_scenes" / "gravity_capbridge.py"
+TRIPLET_SCENE = Path(__file__).parent / "yade_scenes" / "gravity_triplet_capbridge.py"
 _YADE = yr.find_yade()
 G = np.array([0.0, 0.0, -9.81])
 
@@ -37,8 +44,8 @@ def _skip_without_yade():
         pytest.skip("Debian's yade is not installed")
 
 
-def _run(*args, timeout=120):
-    return yr.run_yade_script(SCENE, [str(a) for a in args], timeout=timeout).result
+def _run(*args, timeout=120, scene=SCENE):
+    return yr.run_yade_script(scene, [str(a) for a in args], timeout=timeout).result
 
 
 def _forces(rows):
@@ -248,7 +255,8 @@ def test_unequal_grains_sum_to_the_weight_and_share_by_the_smaller_grain():
     np.testing.assert_allclose(gi, fj, rtol=1e-12, atol=1e-30)
     np.testing.assert_allclose(gj, fi, rtol=1e-12, atol=1e-30)
     # the relative size grows like Bo V* / F*
-    assert relative_correction(2.0, 0.1, 0.5) == pytest.approx(2 * relative_correction(1.0, 0.1, 0.5))
+    assert relative_correction(2.0, 0.1, 0.5) == \
+        pytest.approx(2 * relative_correction(1.0, 0.1, 0.5))
 
 
 def test_bad_liquid_density_and_mode_are_one_line_errors():
@@ -269,3 +277,200 @@ def test_bad_liquid_density_and_mode_are_one_line_errors():
         CapbridgeEngine(bridge_volume_star=0.05, gravity_correction="maybe", label="bad_mode")
     msg = str(exc.value)
     assert "gravity_correction" in msg and "'auto'" in msg and "\n" not in msg
+
+
+# ------------------------------------------- liquid clusters with a gravity response
+
+
+def _synthetic_triplet_table():
+    """The shipped triplet table with the synthetic gravity response of
+    ``tests/test_gravity_surrogate.py`` (the shipped table has none yet)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "_gravity_surrogate_tables", Path(__file__).parent / "test_gravity_surrogate.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.synthetic_triplet_table()
+
+
+def _synthetic_triplet_surrogate():
+    """That table fitted as the engine fits a triplet table (dense coalescence volumes
+    beside it)."""
+    from capbridge.cli import DEFAULT_COALESCENCE_TABLE
+    from capbridge.surrogate.triplet import TripletSurrogate
+
+    return TripletSurrogate().fit(_synthetic_triplet_table(),
+                                  coalescence_table=DEFAULT_COALESCENCE_TABLE)
+
+
+def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
+    """A merged triplet (three 1 mm grains, two bridges on grain 2) with gravity: the
+    grains get the zero-gravity forces plus the surrogate's gravity response
+    (predict_vectors with bond and direction); the same scene rotated by a random
+    rotation gives the rotated forces (the frame mapping), and the response sums to
+    the liquid's weight within the synthetic table's residual."""
+    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
+    from capbridge.dem_plugin.coalescence_detect import find_coalescence
+    from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
+    from capbridge.dimensionless import force_scale
+    from capbridge.generator.triplet import find_coalescence as exact_coalescence
+    from capbridge.generator.triplet import triplet_geometry
+
+    sur = _synthetic_triplet_surrogate()
+    assert sur.has_gravity_
+    R, gamma, drho = 1e-3, 0.073, 997.0
+    lo, hi = sur.gaps_[0], sur.gaps_[-1]
+    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
+    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
+    V = 1.6 * Vc * R**3
+    base = triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+    q, _ = np.linalg.qr(np.random.default_rng(5).normal(size=(3, 3)))
+    g_scene = np.array([2.0, -3.0, -9.0])
+
+    def run(Q):
+        pos = base @ Q.T + np.array([0.01, -0.02, 0.005])
+        m = BridgeModel([R] * 3, 0.0, default_table_path(), gamma,
+                        LiquidRule(bridge_volume=V / 2))
+        m.initialise(pos, pairs=[(0, 2), (1, 2)])
+        geom = m.update(pos, form=False)
+        rep = find_coalescence(pos, m.bi, m.bj, *m.filling_angles(geom["gap"]), m.vol, m.n)
+        assert rep.n_triplets == 1
+        cl = LiquidClusters(gamma, surrogate=sur)
+        cl.gravity = (Q @ g_scene, drho)
+        out = cl.step(m, pos, geom, rep)
+        assert cl.n == 1 and cl.gravity_fallback == 0
+        return out["forces"], m, cl
+
+    F_id, m, cl = run(np.eye(3))
+    # the lookup geometry is the scene's here (same frame): predict_vectors directly
+    bond = drho * np.linalg.norm(g_scene) * R**2 / gamma
+    ref = sur.predict_vectors(base / R, cl.volume[0] / R**3, 0.0, bond=bond,
+                              gravity=g_scene)
+    assert ref["status"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.APPROXIMATE)
+    fs = force_scale(R, gamma)
+    scale = np.abs(ref["forces"]).max() * fs
+    np.testing.assert_allclose(F_id, ref["forces"] * fs, rtol=0, atol=1e-12 * scale)
+    part = (ref["gravity_first_order"] + ref["gravity_second_order"]) * fs
+    assert np.abs(part).max() > 1e-6 * scale                 # gravity did something
+    weight = drho * cl.volume[0] * g_scene
+    resid = float(ref["gravity_sum_residual"])
+    assert np.linalg.norm(F_id.sum(0) - weight) <= (resid + 0.05) * np.linalg.norm(weight)
+    # rotated scene, rotated gravity: rotated forces
+    F_q, _, _ = run(q)
+    np.testing.assert_allclose(F_q, F_id @ q.T, rtol=0, atol=1e-9 * scale)
+
+
+@pytest.mark.yade
+def test_yade_triplet_cluster_carries_its_weight(tmp_path):
+    """In YADE, a coalesced triplet (three fixed 1 mm grains in a tilted frame,
+    triplet_forces on) with a triplet table that has a gravity response (the synthetic
+    one): the start-up line says clusters get it, and the forces YADE holds differ from
+    the gravity-free run ('off') by the surrogate's response rotated into the scene;
+    together they carry the liquid's weight within the table's sum residual."""
+    _skip_without_yade()
+    from capbridge.dem_plugin.triplet_clusters import triangle_centres
+    from capbridge.dimensionless import force_scale
+    from capbridge.generator.triplet import find_coalescence as exact_coalescence
+    from capbridge.generator.triplet import triplet_geometry
+
+    from capbridge.dem_plugin.triplet_clusters import load_surrogate
+
+    table = tmp_path / "triplet_gravity_synthetic.nc"
+    _synthetic_triplet_table().to_netcdf(table)
+    sur = load_surrogate(table)                      # as the engine reads it
+    R, gamma = 1e-3, 0.073
+    lo, hi = sur.gaps_[0], sur.gaps_[-1]
+    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
+    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
+    V = 1.6 * Vc * R**3
+    g = np.array([2.0, -3.0, -9.0])
+    args = ("--table", table, "--gaps", ",".join(map(str, gaps)), "--volume", V,
+            "--gravity", ",".join(map(str, g)))
+    on = _run(*args, "--mode", "on", scene=TRIPLET_SCENE)
+    off = _run(*args, "--mode", "off", scene=TRIPLET_SCENE)
+    line = _startup_line(on)
+    assert "get the triplet table's gravity response" in line
+    last = on["rows"][-1]["triplets"]
+    assert last["clusters"] == 1 and last["gravity_fallback"] == 0
+    assert off["rows"][-1]["triplets"]["clusters"] == 1
+    F_on, F_off = np.array(on["rows"][-1]["f"]), np.array(off["rows"][-1]["f"])
+    # the expected response: lookup frame = the scene's triangle before its rotation q;
+    # rotate g in, the response out
+    local = triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+    q = np.array(on["rotation"])                     # scene = q local + shift
+    C = np.array(on["centres"])
+    np.testing.assert_allclose(C - C[0], (local - local[0]) @ q.T, rtol=0, atol=1e-15)
+    bond = on["drho"] * np.linalg.norm(g) * R**2 / gamma
+    ref = sur.predict_vectors(local / R, on["bridge_volume_total"] / R**3, 0.0, bond=bond,
+                              gravity=q.T @ g)
+    part = (ref["gravity_first_order"] + ref["gravity_second_order"]) * force_scale(R, gamma)
+    scale = np.abs(F_off).max()
+    np.testing.assert_allclose(F_on - F_off, part @ q.T, rtol=0, atol=1e-9 * scale)
+    weight = on["drho"] * on["bridge_volume_total"] * g
+    assert np.linalg.norm(F_off.sum(0)) <= 1e-12 * scale
+    assert np.linalg.norm(F_on.sum(0) - weight) <= \
+        (float(ref["gravity_sum_residual"]) + 0.05) * np.linalg.norm(weight)
+
+
+def test_doublet_response_from_a_table_that_has_it():
+    """With a doublet table carrying a gravity response (the synthetic one of
+    tests/test_gravity_surrogate.py: w = 0.5 / ratio^0.3, c = -0.02 V*), the gravity
+    parts on an unequal pair (1.5 mm and 1 mm, the larger one first) are the
+    surrogate's own F1, F2 with gravity minus the zero-gravity attraction (predict_vectors
+    in the pair's frame), and without the response they are the w = 1/2, c = 0 ones."""
+    import importlib.util
+    from types import SimpleNamespace
+
+    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule
+    from capbridge.dem_plugin.liquid_gravity import LiquidGravity
+    from capbridge.dimensionless import force_scale
+    from capbridge.surrogate.doublet import DoubletSurrogate
+
+    spec = importlib.util.spec_from_file_location(
+        "_gravity_surrogate_tables", Path(__file__).parent / "test_gravity_surrogate.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    sur = DoubletSurrogate().fit(mod.synthetic_doublet_table())
+    assert sur.has_gravity()
+    gamma, drho, r, Rl, vstar, theta = 0.073, 997.0, 1e-3, 1.5e-3, 0.05, 20.0
+    g = np.array([3.0, 1.0, -9.0])
+    gap = 0.1 * r
+    pos = np.array([[0.0, 0.0, 0.0], [Rl + r + gap, 0.0, 0.0]])    # grain 0 the larger
+
+    def parts(table):
+        m = BridgeModel([Rl, r], theta, table, gamma,
+                        LiquidRule(bridge_volume_star=vstar), with_beta=False)
+        m.initialise(pos, pairs=[(0, 1)])
+        geom = m.update(pos, form=False)
+        eng = SimpleNamespace(model=m, label="t", triplet_forces=False, walls=None,
+                              holds_forces=False, force_tolerance=0.0,
+                              _say=lambda *a: None)
+        lg = LiquidGravity("on", drho, gamma)
+        lg.decide(eng, g)
+        f, _ = lg.grain_forces(eng, geom)
+        return f, geom, lg
+
+    f, geom, lg = parts(sur)
+    assert lg.doublet_response
+    bond = drho * np.linalg.norm(g) * r**2 / gamma
+    # the pair's frame: n from the smaller grain (1) to the larger (0) is -x
+    n = np.array([-1.0, 0.0, 0.0])
+    frame = np.array([n, [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]])       # rows: new axes
+    ref = sur.predict_vectors(geom["gap"][0] / r, vstar, theta, Rl / r, bond=bond,
+                              gravity=frame @ g)
+    fs = force_scale(r, gamma)
+    F0 = float(ref["force"])
+    want_small = (ref["F1"] - F0 * np.array([1.0, 0, 0])) @ frame * fs
+    want_large = (ref["F2"] + F0 * np.array([1.0, 0, 0])) @ frame * fs
+    weight = drho * vstar * r**3 * g
+    np.testing.assert_allclose(f[1], want_small, rtol=0, atol=1e-9 * np.linalg.norm(weight))
+    np.testing.assert_allclose(f[0], want_large, rtol=0, atol=1e-9 * np.linalg.norm(weight))
+    assert abs(float(ref["share"]) - 0.5) > 0.05 and float(ref["curvature"]) != 0
+    # the table's share moves the weight between the grains, the sum stays the weight
+    # (the curvature term is equal and opposite)
+    np.testing.assert_allclose(f.sum(0), weight, rtol=1e-12)
+    f_half, _, lg0 = parts(mod.synthetic_doublet_table().drop_vars(
+        ["weight_share_axial", "force_gravity_curvature_axial"]))
+    assert not lg0.doublet_response
+    assert np.abs(f_half - f).max() > 1e-3 * np.linalg.norm(weight)

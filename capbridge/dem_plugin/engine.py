@@ -54,7 +54,8 @@ to the two grains of every bridge the liquid's weight drho V g, split as
 :func:`capbridge.surrogate.gravity.doublet_gravity_forces` says (drho =
 ``liquid_density``).  ``gravity_correction="auto"`` applies it to the bridges where it is
 larger than the doublet table's own error and prints one start-up line with the
-numbers; "on" / "off" force it.  Wall bridges and triplet clusters carry no gravity.
+numbers; "on" / "off" force it.  Wall bridges carry no gravity; triplet clusters get the
+triplet table's gravity response when it has one.
 
 Restarts: the engine's state (bridges, volumes, films, ledger, held forces, and any part
 registered with :meth:`CapbridgeEngine.register_state`) is written into the scene's
@@ -681,6 +682,7 @@ class CapbridgeEngine:
                                  or it - self._coal_last >= self.coalescence_every):
             rep = self.check_coalescence(pos, geom)
             self._coal_last = it
+        self.gravity.refresh(self, O)             # g from NewtonIntegrator, decision
         tri = None
         if self.triplet_forces and ((rep is not None and rep.n_triplets) or
                                     (self.clusters is not None and self.clusters.n)):
@@ -691,11 +693,11 @@ class CapbridgeEngine:
             forces += tri["forces"]
             if changed is not None:
                 changed = np.union1d(changed, tri["grains"])
-        # gravity on the liquid (g re-read from NewtonIntegrator; bridges merged into a
-        # liquid cluster keep the cluster's zero-gravity forces)
+        # gravity on the liquid (bridges merged into a liquid cluster: the cluster's
+        # gravity response instead, or none)
         in_clusters = (self.clusters.bridge_rows(self.model)
                        if self.clusters is not None and self.clusters.n else None)
-        g_forces, g_changed = self.gravity.grain_forces(self, O, geom, in_clusters)
+        g_forces, g_changed = self.gravity.grain_forces(self, geom, in_clusters)
         if g_forces is not None:
             forces = forces + g_forces
             if changed is not None and g_changed is not None:
@@ -935,6 +937,7 @@ class CapbridgeEngine:
             self.clusters = LiquidClusters(self.gamma, table=self.triplet_table,
                                            split_solver=self.triplet_split)
         loads = self.clusters.loads
+        self.clusters.gravity = self.gravity.cluster_gravity()
         out = self.clusters.step(self.model, pos, geom, rep, it)
         self.events["ruptured"] += out["ruptured"]
         if self.clusters.loads > loads:

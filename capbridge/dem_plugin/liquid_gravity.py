@@ -19,10 +19,12 @@ F0 n, -F0 n are the zero-gravity forces the engine already applies; this module 
 rest.  In SI the part added on the two grains sums to drho V g exactly (the liquid's
 weight rides on the grains); for equal grains and angles each carries drho V g / 2.
 
-w = 1/2 is exact for equal grains and angles (mirror symmetry).  For unequal grains the
-doublet table's ``weight_share_axial`` and ``force_gravity_curvature_axial`` (c) are
-not in the shipped table yet: w = 1/2 and c = 0 are used for every bridge (see
-:data:`SHARE_AXIAL`, :data:`CURVATURE_AXIAL`).
+w = 1/2 is exact for equal grains and angles (mirror symmetry).  When the doublet table
+carries its gravity response (``weight_share_axial``, ``force_gravity_curvature_axial``)
+w and c are the table's at each bridge's (ratio, theta, V*, s) (:meth:`LiquidGravity.
+response`; bridges of two different angles keep 1/2 and 0); the shipped table has
+none yet, and then w = 1/2 and c = 0 for every bridge (:data:`SHARE_AXIAL`,
+:data:`CURVATURE_AXIAL`).  The bridge's rupture distance stays the zero-gravity one.
 
 When is it worth it
 -------------------
@@ -55,8 +57,9 @@ import numpy as np
 from capbridge.surrogate.gravity import doublet_gravity_forces
 
 __all__ = ["DEFAULT_LIQUID_DENSITY", "FALLBACK_TABLE_ERROR", "GRAVITY_MODES", "ERROR_BAND",
-           "SHARE_AXIAL", "CURVATURE_AXIAL", "BOND_RANGE", "newton_gravity", "table_error",
-           "relative_correction", "bridge_gravity_forces", "LiquidGravity"]
+           "SHARE_AXIAL", "CURVATURE_AXIAL", "BOND_RANGE", "triplet_table_has_gravity",
+           "newton_gravity", "table_error", "relative_correction", "bridge_gravity_forces",
+           "LiquidGravity"]
 
 #: Density difference water - air at 20 C [kg/m^3] (998.2 - 1.2).
 DEFAULT_LIQUID_DENSITY = 997.0
@@ -69,12 +72,12 @@ ERROR_BAND = 0.2
 BOND_RANGE = 2.5
 #: Values of the engine's ``gravity_correction``.
 GRAVITY_MODES = ("auto", "on", "off")
-#: First-order share of the weight on the smaller grain, gravity along the axis.
-#: TODO(issue 10): the doublet table's ``weight_share_axial`` when it lands (exact 1/2
-#: for equal grains and angles only).
+#: First-order share of the weight on the smaller grain, gravity along the axis, when
+#: the doublet table has no ``weight_share_axial`` (the shipped one has none yet; exact
+#: 1/2 for equal grains and angles only).  With it: :meth:`LiquidGravity.response`.
 SHARE_AXIAL = 0.5
-#: d2F*/db_n^2 of the attraction.  TODO(issue 10): the doublet table's
-#: ``force_gravity_curvature_axial`` when it lands (second order; 0 until then).
+#: d2F*/db_n^2 of the attraction when the doublet table has no
+#: ``force_gravity_curvature_axial`` (second order; 0 until the table has it).
 CURVATURE_AXIAL = 0.0
 
 
@@ -121,6 +124,18 @@ def table_error(surrogate):
     return FALLBACK_TABLE_ERROR, ("1e-3 assumed: the doublet table has no held-out error")
 
 
+def triplet_table_has_gravity(path):
+    """True if the triplet table at ``path`` carries a gravity response
+    (``force_gravity_gradient``); reads the file's metadata only."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path) as ds:
+            return "force_gravity_gradient" in ds
+    except (OSError, ValueError):
+        return False
+
+
 def relative_correction(bond, vstar, fstar, curvature=0.0):
     """Size of the gravity part of a grain's force relative to the attraction.
 
@@ -150,7 +165,8 @@ def relative_correction(bond, vstar, fstar, curvature=0.0):
         np.abs(np.asarray(curvature, float)) * bo**2 / (2.0 * f)
 
 
-def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma):
+def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma,
+                          share=SHARE_AXIAL, curvature=CURVATURE_AXIAL):
     """Gravity part of the forces of bridges on their two grains [N].
 
     Parameters
@@ -163,6 +179,8 @@ def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma):
     g_vec : (3,) gravity vector [m/s^2].
     drho : density difference liquid - gas [kg/m^3].
     gamma : surface tension [N/m].
+    share, curvature : (m,) or scalar
+        w and c of each bridge (:data:`SHARE_AXIAL`, :data:`CURVATURE_AXIAL` by default).
 
     Returns
     -------
@@ -178,7 +196,7 @@ def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma):
     n = d / dist[:, None]
     i_small = r_i <= r_j
     n1 = np.where(i_small[:, None], n, -n)          # from the smaller grain to the other
-    f1, f2 = doublet_gravity_forces(0.0, n1, vstar, b, SHARE_AXIAL, CURVATURE_AXIAL)
+    f1, f2 = doublet_gravity_forces(0.0, n1, vstar, b, share, curvature)
     f1 *= fscale[:, None]
     f2 *= fscale[:, None]
     return np.where(i_small[:, None], f1, f2), np.where(i_small[:, None], f2, f1)
@@ -192,7 +210,8 @@ class LiquidGravity:
     mode : {"auto", "on", "off"}
         "auto": a bridge gets the correction when its largest relative correction
         (:func:`relative_correction` at the smallest attraction of its profile over
-        s >= :data:`ERROR_BAND`) exceeds the table's error; "on": every bridge; "off": none.
+        s >= :data:`ERROR_BAND`) exceeds the table's error; "on": every bridge;
+        "off": none.
     drho : float
         Density difference liquid - gas [kg/m^3].
     gamma : float
@@ -209,6 +228,8 @@ class LiquidGravity:
         self.eps_source = ""
         self.summary = {}
         self.n_corrected = 0
+        self.clusters_on = False            # clusters get the triplet table's response
+        self.doublet_response = False       # w, c from the doublet table
 
     # --------------------------------------------------------------- decision
     def _rule_bridges(self, model):
@@ -267,6 +288,8 @@ class LiquidGravity:
         gn = float(np.linalg.norm(self.g))
         if self.eps is None:
             self.eps, self.eps_source = table_error(model.table.surrogate)
+        sur = model.table.surrogate
+        self.doublet_response = bool(getattr(sur, "has_gravity", lambda: False)())
         r_max = float(model.radii.max())
         bo_max = self.drho * gn * r_max**2 / self.gamma
         rel = self.estimate(model, self.g) if gn > 0 else 0.0
@@ -287,10 +310,17 @@ class LiquidGravity:
         self.summary = {"applied": self.applied, "mode": self.mode, "bond_largest": bo_max,
                         "largest_relative_correction": rel, "table_error": self.eps,
                         "gravity": self.g.tolist(), "liquid_density": self.drho}
-        extra = ""
+        extra = "" if not self.applied else (
+            "; weight share w and curvature c from the doublet table's gravity response "
+            "(equal angles; w = 1/2, c = 0 for mixed angles)" if self.doublet_response
+            else "; w = 1/2, c = 0 (the doublet table has no gravity response)")
+        self.clusters_on = False
         if self.applied and getattr(eng, "triplet_forces", False):
-            extra = ("; liquid clusters of coalesced triplets keep their zero-gravity "
-                     "forces (the triplet table has no gravity response yet)")
+            self.clusters_on = triplet_table_has_gravity(eng.triplet_table)
+            extra += ("; liquid clusters of coalesced triplets get the triplet table's "
+                      "gravity response" if self.clusters_on else
+                      "; liquid clusters of coalesced triplets keep their zero-gravity "
+                      "forces (the triplet table has no gravity response)")
         walls = "; wall bridges carry no gravity" if getattr(eng, "walls", None) else ""
         high = (f"; Bo {bo_max:.3g} is beyond the range Bo <= {BOND_RANGE:g} of capbridge's "
                 "gravity checks" if self.applied and bo_max > BOND_RANGE else "")
@@ -299,17 +329,29 @@ class LiquidGravity:
                 f"{extra}{walls}{high}")
 
     # ----------------------------------------------------------------- forces
-    def grain_forces(self, eng, O, geom, exclude=None):
-        """Gravity parts on the grains [N] (n, 3) for this refresh, and the rows of
-        grains whose held part changed (for held forces), or ``(None, None)`` when
-        nothing is or was applied.  What is handed out is kept in the bridge model's
-        ``gravity_held`` (saved with it, part of ``held_grain_forces``).  Re-reads the
-        scene's gravity (a change is followed, with a log line)."""
+    def refresh(self, eng, O):
+        """Read the scene's gravity; decide (with the log line) at the first call and
+        whenever it changed."""
         g = newton_gravity(O)
         if self.g is None or not np.array_equal(g, self.g):
             eng._say("info" if self.g is None else "warning",
                      self.decide(eng, g, "start-up" if self.g is None else
                                  f"gravity changed at iter {int(O.iter)}"))
+
+    def cluster_gravity(self):
+        """(g [m/s^2], drho [kg/m^3]) for the liquid clusters when the correction is
+        applied and the triplet table has a gravity response, else None."""
+        if self.applied and self.clusters_on:
+            return self.g.copy(), self.drho
+        return None
+
+    def grain_forces(self, eng, geom, exclude=None):
+        """Gravity parts on the grains [N] (n, 3) for this refresh (after
+        :meth:`refresh`), and the rows of grains whose held part changed (for held
+        forces), or ``(None, None)`` when nothing is or was applied.  Bridges
+        ``exclude`` (merged into a liquid cluster) get none.  What is handed out is kept
+        in the bridge model's ``gravity_held`` (saved with it, part of
+        ``held_grain_forces``)."""
         model = eng.model
         n = model.n
         if model.gravity_held.shape[0] != n:
@@ -330,10 +372,12 @@ class LiquidGravity:
                                            CURVATURE_AXIAL) > self.eps
             k = np.flatnonzero(use)
             self.n_corrected = int(k.size)
+            w, c = (self.response(model, geom, k) if self.doublet_response
+                    else (SHARE_AXIAL, CURVATURE_AXIAL))
             fi, fj = bridge_gravity_forces(geom["d"][k], geom["dist"][k],
                                            model.radii[model.bi[k]], model.radii[model.bj[k]],
                                            model.vstar[k], model.fscale[k], self.g, self.drho,
-                                           self.gamma)
+                                           self.gamma, w, c)
             xyz = np.arange(3)
             new = (np.bincount((3 * model.bi[k, None] + xyz).ravel(), fi.ravel(),
                                minlength=3 * n)
@@ -351,13 +395,38 @@ class LiquidGravity:
         held[upd] = new[upd]
         return held.copy(), np.flatnonzero(upd)
 
+    @staticmethod
+    def response(model, geom, k):
+        """w and c of bridges ``k`` at their current gaps from the doublet table's
+        gravity response (``weight_share_axial``, ``force_gravity_curvature_axial``,
+        interpolated by the surrogate at (ratio, theta, V*, s)).  Bridges of two
+        different angles (the table has equal angles) and points where the response
+        has no number keep w = 1/2, c = 0."""
+        sur = model.table.surrogate
+        bi, bj = model.bi[k], model.bj[k]
+        ri, rj = model.radii[bi], model.radii[bj]
+        small, large = np.where(ri <= rj, bi, bj), np.where(ri <= rj, bj, bi)
+        t1, t2 = model.theta[small], model.theta[large]
+        w = np.full(k.size, SHARE_AXIAL)
+        c = np.full(k.size, CURVATURE_AXIAL)
+        same = np.flatnonzero(np.abs(t1 - t2) <= 1e-9)
+        if same.size:
+            kk = k[same]
+            s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
+            ratio = np.maximum(ri, rj)[same] / np.minimum(ri, rj)[same]
+            ww, cc, code = sur._gravity_response(ratio, t1[same], model.vstar[kk], s)
+            ok = (code < 2) & np.isfinite(ww) & np.isfinite(cc)
+            w[same[ok]], c[same[ok]] = ww[ok], cc[ok]
+        return w, c
+
     # ------------------------------------------------------------------ state
     def get_state(self):
         """The decision, for ``O.tags`` (see ``state_io``; the gravity forces last
         handed out are the bridge model's ``gravity_held``)."""
         return {"mode": self.mode, "drho": self.drho,
                 "g": None if self.g is None else self.g.tolist(),
-                "applied": bool(self.applied), "eps": self.eps, "eps_source": self.eps_source,
+                "applied": bool(self.applied), "clusters_on": bool(self.clusters_on),
+                "eps": self.eps, "eps_source": self.eps_source,
                 "summary": dict(self.summary)}
 
     def set_state(self, st):
@@ -366,6 +435,7 @@ class LiquidGravity:
         self.drho = float(st["drho"])
         self.g = None if st["g"] is None else np.array(st["g"], float)
         self.applied = bool(st["applied"])
+        self.clusters_on = bool(st.get("clusters_on", False))
         self.eps = st["eps"]
         self.eps_source = st["eps_source"]
         self.summary = dict(st["summary"])

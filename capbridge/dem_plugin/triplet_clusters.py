@@ -194,6 +194,15 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
     return V
 
 
+def _frame(a, b):
+    """Orthonormal frames (k, 3, 3), rows e1 = a/|a|, e2 in the plane of a and b,
+    e3 = e1 x e2."""
+    e1 = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    n = np.cross(a, b)
+    e3 = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    return np.stack([e1, np.cross(e3, e1), e3], axis=-2)
+
+
 def triangle_centres(L01, L02, L12):
     """Centres of three spheres with centre distances L01, L02, L12, in a local frame.
 
@@ -287,6 +296,10 @@ class LiquidClusters:
         self._funicular_keys = set()
         self._refused_keys = set()
         self.last = None
+        #: gravity on the liquid, set by the engine at every step: (g [m/s^2] (3,),
+        #: drho [kg/m^3]) or None (:meth:`gravity_forces`)
+        self.gravity = None
+        self.gravity_fallback = 0
 
     def _clear(self):
         self.grains = np.empty((0, 3), np.intp)        # sorted grain triple per cluster
@@ -334,8 +347,8 @@ class LiquidClusters:
 
     def bridge_rows(self, model):
         """Rows in the model of the bridges merged into the clusters (gravity on the
-        liquid: those keep the cluster's zero-gravity forces, the triplet table having
-        no gravity response in the engine yet)."""
+        liquid: their doublet gravity part is replaced by the cluster's,
+        :meth:`gravity_forces`)."""
         if not self.n:
             return np.empty(0, np.intp)
         rows = self._rows(model, self.members.reshape(-1, 2))
@@ -390,6 +403,70 @@ class LiquidClusters:
                 out["lower"][ask] = res["lower_energy_state"]
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
+
+    def gravity_forces(self, model, pos):
+        """Gravity parts of the clusters' grain forces [N], (k, 3, 3) [cluster, grain,
+        xyz] in the scene frame.
+
+        With g and drho from :attr:`gravity` and b = Bo g_hat (Bo = drho |g| r^2 /
+        gamma, r the cluster's smallest radius), the triplet table's response
+        (:meth:`~capbridge.surrogate.triplet.TripletSurrogate.predict_vectors` with
+        ``bond`` and ``gravity``: F_i(b) - F_i(0) = Q (G_i b_t + C_i b_t^2 / 2), the
+        first- and diagonal second-order terms; they sum over the grains to the
+        liquid's weight drho V g up to the table's ``gravity_sum_residual``) at the
+        lookup geometry (:func:`triangle_centres` of the gaps, those below zero taken
+        as contact), rotated into the scene by the frame of the grains' centre lines
+        (grain 0 -> 1 and the plane of the three).  Zero for a cluster whose table has
+        no gravity response, whose Bo is above the surrogate's ``BOND_MAX`` or whose
+        response has no number there (counted in :attr:`gravity_fallback`).
+        """
+        from capbridge.surrogate.doublet import BOND_MAX
+
+        k = self.n
+        out = np.zeros((k, 3, 3))
+        if self.gravity is None or not k:
+            return out
+        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+        gn = float(np.linalg.norm(g_vec))
+        sur = self.surrogate()
+        if gn == 0.0 or drho == 0.0:
+            return out
+        if not getattr(sur, "has_gravity_", False):
+            self.gravity_fallback += k
+            return out
+        grains = self.grains
+        R = model.radii[grains]
+        P = ((0, 1), (0, 2), (1, 2))
+        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
+        dist = np.linalg.norm(d, axis=-1)
+        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
+        g = np.maximum(gaps, 0.0)
+        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
+        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
+        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
+        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
+        g_loc = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec))
+        r = R.min(axis=1)
+        bond = drho * gn * r**2 / self.gamma
+        use = np.flatnonzero(bond <= BOND_MAX)
+        part = np.zeros((k, 3, 3))
+        if use.size:
+            try:
+                res = sur.predict_vectors(C[use] / r[use, None, None],
+                                          self.volume[use] / r[use]**3,
+                                          model.theta[grains[use, 0]],
+                                          radii=R[use] / r[use, None], bond=bond[use],
+                                          gravity=g_loc[use])
+                part[use] = res["gravity_first_order"] + res["gravity_second_order"]
+            except CapbridgeInputError:
+                part[use] = np.nan
+        bad = ~np.all(np.isfinite(part), axis=(1, 2))
+        bad[np.setdiff1d(np.arange(k), use)] = True
+        part[bad] = 0.0
+        self.gravity_fallback += int(bad.sum())
+        part *= force_scale(r, self.gamma)[:, None, None]
+        # lookup frame -> scene frame, grain by grain
+        return np.einsum("kji,kgj->kgi", S, np.einsum("kij,kgj->kgi", T, part))
 
     # ----------------------------------------------------------------- step
     def step(self, model, pos, geom, report=None, step=0):
@@ -454,6 +531,8 @@ class LiquidClusters:
             for m, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
                 F[:, a] += fv[:, m]
                 F[:, b] -= fv[:, m]
+            if self.gravity is not None:
+                F += self.gravity_forces(model, pos)
             np.add.at(forces, self.grains.ravel(), F.reshape(-1, 3))
         self.last = {"status": res["status"], "f": res["f"], "gaps": res["gaps"]}
         return {"forces": forces, "grains": np.unique(self.grains), "geom": geom,
@@ -624,6 +703,7 @@ class LiquidClusters:
                "table_loaded": self.loaded, "table_loads": self.loads,
                "timings": dict(self.timings)}
         out["born"] = self.born.tolist()            # DEM step of each cluster's merge
+        out["gravity_fallback"] = self.gravity_fallback
         if self.last is not None and self.n:
             out["statuses"] = [Status(int(s)).name.lower() for s in self.last["status"]]
         return out

@@ -2,7 +2,8 @@
 
     python gravity_capbridge.py --radius 4e-3 --mode auto --gravity 0,0,-9.81 \
         [--steps 60] [--change-at K --gravity2 gx,gy,gz] [--restart] \
-        [--tolerance 0] [--refresh 1] [--rho 997] [--save FILE | --load FILE]
+        [--tolerance 0] [--refresh 1] [--rho 997] [--pair2 R2] \
+        [--save FILE | --load FILE]
 
 Sphere 0 is fixed at the origin; sphere 1 (fixed, driven) starts at a gap of 0.02 R
 along a skew axis (1, 2, 2)/3 and moves away so that the gap grows to 0.2 R in
@@ -11,11 +12,11 @@ not rupture).  ``--gravity none`` puts no gravity in NewtonIntegrator.  Every ro
 the force YADE holds on each sphere after the step (O.forces), the gap and the bridge
 volume.  ``--change-at K``: before step K the NewtonIntegrator's gravity is set to
 ``--gravity2`` (the user changes it mid-run).  ``--pair2 R2``: a second pair of beads
-of radius R2 (bodies 2, 3), 5 cm away, driven the same way (rows: ``f_pair2``).  ``--restart``: O.saveTmp after
-``steps // 2`` steps, the remaining steps recorded, O.loadTmp, the same steps recorded
-again.  ``--save FILE``: O.save after ``steps // 2`` steps, the remaining steps
-recorded; ``--load FILE`` (a new process): O.load, no engine made, the remaining steps
-recorded.  Prints one JSON line.
+of radius R2 (bodies 2, 3), 5 cm away, driven the same way (rows: ``f_pair2``).
+``--restart``: O.saveTmp after ``steps // 2`` steps, the remaining steps recorded,
+O.loadTmp, the same steps recorded again.  ``--save FILE``: O.save after ``steps // 2``
+steps, the remaining steps recorded; ``--load FILE`` (a new process): O.load, no
+engine made, the remaining steps recorded.  Prints one JSON line.
 """
 import argparse
 import sys
