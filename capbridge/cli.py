@@ -334,9 +334,12 @@ def _info_doublet_gravity(ds):
     for n in names:
         dims = ", ".join(f"{d} {ds.sizes[d]}" for d in ds[n].dims)
         print(f"    {n} ({dims}): {ds[n].attrs.get('long_name', '')}")
-    for d in ("bond", "gravity_axis"):
+    for d in sorted({d for n in names for d in ds[n].dims if d.startswith(("gravity_",
+                                                                             "rupture_"))}):
         if d in ds.coords:
-            print(f"    {d}: {np.asarray(ds[d].values).tolist()}")
+            c = np.asarray(ds[d].values)
+            print(f"    {d}: {np.round(c, 6).tolist()}" if c.size <= 8 else
+                  f"    {d}: {c.size} values in [{c.min():g}, {c.max():g}]")
     if "gravity_status" in ds:
         st = np.asarray(ds["gravity_status"].values)
         print(f"    response points: {st.size}, with a result: "

@@ -16,7 +16,7 @@ from capbridge.generator.triplet import triplet_geometry
 from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.surrogate.triplet import TripletSurrogate
-from test_gravity_surrogate import (add_synthetic_holdout, needs_tables,
+from test_gravity_surrogate import (DTHETA, DV, add_synthetic_holdout, needs_tables,
                                     synthetic_doublet_table, synthetic_triplet_table)
 
 pytestmark = needs_tables
@@ -72,10 +72,10 @@ def test_lookup_doublet_bond_gives_the_force_vectors(tmp_path, doublet_file, cap
 
 def test_lookup_doublet_out_of_range_rows_are_reported(tmp_path, doublet_file, capsys):
     sur = DoubletSurrogate().fit(doublet_file)
-    d0 = float(sur.predict(0.0, 0.05, 30.0)["rupture_gap"])
+    d0 = float(sur.predict(0.0, DV, DTHETA)["rupture_gap"])
     out = tmp_path / "o.csv"
     assert main(["lookup", "doublet", "--input",
-                 _csv(tmp_path / "p.csv", ["d", "V", "theta"], [(1.02 * d0, 0.05, 30.0)]),
+                 _csv(tmp_path / "p.csv", ["d", "V", "theta"], [(1.02 * d0, DV, DTHETA)]),
                  "--output", str(out), "--table", doublet_file, "--bond", "1",
                  "--gravity", "1,0,0"]) == 0
     assert pd.read_csv(out).status[0] == "out_of_range"
@@ -226,7 +226,8 @@ def test_info_prints_the_gravity_content(capsys, doublet_file, triplet_file):
     assert float(rows[-1][5].rstrip(",")) > 0.1 > float(rows[-2][5].rstrip(","))
     assert main(["info", "--table", doublet_file]) == 0
     out = capsys.readouterr().out
-    assert "rupture_gap_gravity (ratio 10, theta 17, volume 25, bond 3, gravity_axis 2)" in out
+    assert ("rupture_gap_gravity (rupture_bond 5, rupture_gravity_axis 2, rupture_ratio 2, "
+            "rupture_theta 4, rupture_volume 5)") in out
     assert "weight_share_axial" in out
 
 

@@ -65,30 +65,54 @@ def synthetic_triplet_table(seed=0, fail_node=False):
 
 
 def synthetic_doublet_table():
-    """The shipped doublet table with a synthetic response: the weight share of grain 1
-    (1/2 for equal grains), a curvature, and rupture distances with gravity along the
-    axis (shorter with grain 1 below, longer with it above)."""
+    """The shipped doublet table with a synthetic response in the layout of
+    :func:`capbridge.generator.doublet_gravity.gravity_datasets`: the weight share of
+    grain 1 (exactly 1/2 for equal grains) and a curvature on a sub-grid (every second
+    theta, volume and s node, without s = 0), and rupture distances with gravity along
+    the axis on a smaller one, shorter with grain 1 below, longer with it above:
+    d_rupt(Bo) = d_rupt(0) (1 + 0.04 Bo gravity_axis)."""
     ds = read_table(DEFAULT_TABLE)
     ds.attrs.pop("data_sha256", None)
     ratio = ds["ratio"].values
+    th, vol, s = (ds[n].values for n in ("theta", "volume", "s"))
+    it, iv = np.arange(0, th.size, 2), np.arange(vol.size - 1, -1, -2)[::-1]
+    i_s = np.arange(s.size - 1, -1, -2)[::-1]
+    i_s = i_s[s[i_s] > 0]
+    shape = (ratio.size, it.size, iv.size, i_s.size)
     share = 0.5 / ratio ** 0.3                     # any smooth share; exactly 1/2 at ratio 1
-    shape = tuple(ds.sizes[d] for d in ("ratio", "theta", "volume", "s"))
     w = np.broadcast_to(share[:, None, None, None], shape).copy()
-    c = -0.02 * np.broadcast_to(ds["volume"].values[None, None, :, None], shape).copy()
-    bonds = np.array([0.5, 1.0, 2.5])
+    c = -0.02 * np.broadcast_to(vol[iv][None, None, :, None], shape).copy()
+    bonds = np.array([0.1, 0.5, 1.0, 2.14, 2.5])
     axes = np.array([-1.0, 1.0])
-    rup = ds["rupture_gap"].values[..., None, None] * \
-        (1.0 + 0.04 * bonds[:, None] * axes[None, :])
+    jr = np.flatnonzero(np.isin(ratio, (1.0, 2.0)))
+    jt = np.flatnonzero(np.isin(th, (0.0, 30.0, 60.0, 80.0)))
+    kv = np.unique(np.round(np.linspace(0, vol.size - 1, 5))).astype(int)
+    d0 = ds["rupture_gap"].values[jr][:, jt][:, :, kv]
+    rup = d0[None, None] * (1.0 + 0.04 * bonds[:, None, None, None, None]
+                            * axes[None, :, None, None, None])
     one = {"units": "1", "long_name": "synthetic"}
+    gdims = ("ratio", "gravity_theta", "gravity_volume", "gravity_s")
+    rdims = ("rupture_bond", "rupture_gravity_axis", "rupture_ratio", "rupture_theta",
+             "rupture_volume")
     add = xr.Dataset(
-        {"weight_share_axial": (("ratio", "theta", "volume", "s"), w, one),
-         "force_gravity_curvature_axial": (("ratio", "theta", "volume", "s"), c, one),
-         "gravity_status": (("ratio", "theta", "volume", "s"), np.zeros(shape, np.int8),
-                            {"long_name": "status"}),
-         "rupture_gap_gravity": (("ratio", "theta", "volume", "bond", "gravity_axis"), rup,
-                                 one)},
-        coords={"bond": ("bond", bonds, one), "gravity_axis": ("gravity_axis", axes, one)})
+        {"weight_share_axial": (gdims, w, one), "force_gravity_curvature_axial": (gdims, c, one),
+         "gravity_status": (gdims, np.zeros(shape, np.int8), {"long_name": "status"}),
+         "rupture_gap_gravity": (rdims, rup, one),
+         "rupture_gravity_status": (rdims, np.zeros(rup.shape, np.int8), {"long_name": "s"})},
+        coords={"gravity_theta": ("gravity_theta", th[it], one),
+                "gravity_volume": ("gravity_volume", vol[iv], one),
+                "gravity_s": ("gravity_s", s[i_s], one),
+                "rupture_bond": ("rupture_bond", bonds, one),
+                "rupture_gravity_axis": ("rupture_gravity_axis", axes, one),
+                "rupture_ratio": ("rupture_ratio", ratio[jr], one),
+                "rupture_theta": ("rupture_theta", th[jt], one),
+                "rupture_volume": ("rupture_volume", vol[kv], one)})
     return xr.merge([ds, add], combine_attrs="override")
+
+
+#: a volume and an angle on every sub-grid of the synthetic doublet response
+DV = float(np.geomspace(1e-3, 0.5, 25)[12])
+DTHETA = 30.0
 
 
 #: error (relative to the largest grain force) put on the synthetic held-out points,
@@ -321,13 +345,17 @@ def test_doublet_unequal_grains_use_the_table_share(dsur):
 
 
 def test_doublet_rupture_with_gravity(dsur):
-    vol, th = 0.05, 30.0
+    vol, th = DV, DTHETA                     # a node of the rupture sub-grid
     d0 = float(dsur.predict(0.0, vol, th)["rupture_gap"])
     # synthetic table: d_rupt(Bo) = d0 (1 + 0.04 Bo axis) at the bond nodes
     below = dsur.predict_vectors(0.0, vol, th, bond=1.0, gravity=(-1, 0, 0))
     above = dsur.predict_vectors(0.0, vol, th, bond=1.0, gravity=(1, 0, 0))
-    assert below["rupture_gap"] == pytest.approx(d0 * 0.96, rel=1e-3)
-    assert above["rupture_gap"] == pytest.approx(d0 * 1.04, rel=1e-3)
+    assert below["rupture_gap"] == pytest.approx(d0 * 0.96, rel=1e-9)
+    assert above["rupture_gap"] == pytest.approx(d0 * 1.04, rel=1e-9)
+    assert below["rupture_gap_zero_gravity"] == pytest.approx(d0, rel=1e-12)
+    # between two bond nodes: linear in Bo
+    mid = dsur.predict_vectors(0.0, vol, th, bond=1.57, gravity=(1, 0, 0))
+    assert mid["rupture_gap"] == pytest.approx(d0 * (1 + 0.04 * 1.57), rel=1e-9)
     # gravity ruptures earlier: RUPTURED, no force
     r = dsur.predict_vectors(0.98 * d0, vol, th, bond=1.0, gravity=(-1, 0, 0))
     assert r["status"] == Status.RUPTURED and np.all(r["F1"] == 0) and np.all(r["F2"] == 0)
@@ -337,14 +365,34 @@ def test_doublet_rupture_with_gravity(dsur):
     # beyond both
     r = dsur.predict_vectors(1.06 * d0, vol, th, bond=1.0, gravity=(1, 0, 0))
     assert r["status"] == Status.RUPTURED
-    # between Bo = 0 and the first bond node (0.5): linear from the zero-gravity value
-    r = dsur.predict_vectors(0.0, vol, th, bond=0.25, gravity=(1, 0, 0))
-    assert r["rupture_gap"] == pytest.approx(d0 * (1 + 0.04 * 0.5 / 2), rel=1e-3)
+    # between Bo = 0 and the first bond node (0.1): linear from the zero-gravity value
+    r = dsur.predict_vectors(0.0, vol, th, bond=0.05, gravity=(1, 0, 0))
+    assert r["rupture_gap"] == pytest.approx(d0 * (1 + 0.04 * 0.1 / 2), rel=1e-9)
+    # oblique gravity: the axial component decides
+    r = dsur.predict_vectors(0.0, vol, th, bond=2.0, gravity=(0.6, 0, -0.8))
+    assert r["rupture_gap"] == pytest.approx(d0 * (1 + 0.04 * 1.2), rel=1e-9)
     # transverse gravity near rupture: approximate; well inside: converged
     near = dsur.predict_vectors(0.95 * d0, vol, th, bond=1.0, gravity=(0, 0, -1))
     inside = dsur.predict_vectors(0.5 * d0, vol, th, bond=1.0, gravity=(0, 0, -1))
     assert near["status"] == Status.APPROXIMATE and np.all(np.isfinite(near["F1"]))
     assert inside["status"] == Status.CONVERGED
+    # a ratio outside the rupture sub-grid (1, 2): its nearest edge, approximate
+    far = dsur.predict_vectors(0.5 * d0, vol, th, ratio=3.0, bond=1.0, gravity=(-1, 0, 0))
+    assert far["status"] == Status.APPROXIMATE
+
+
+def test_doublet_failed_response_node_gives_no_number():
+    ds = synthetic_doublet_table()
+    st = ds["gravity_status"].values.copy()
+    st[0, 3, 6, 5] = Status.NOT_CONVERGED      # ratio 1, theta 30, volume index 12
+    ds["gravity_status"] = (ds["gravity_status"].dims, st, {"long_name": "status"})
+    sur = DoubletSurrogate().fit(ds)
+    s_node = float(ds["gravity_s"].values[5])
+    d0 = float(sur.predict(0.0, DV, DTHETA)["rupture_gap"])
+    gap = d0 * (1 - (s_node + 0.01) ** 2)              # in a cell touching the node
+    assert sur.predict_vectors(gap, DV, DTHETA, bond=1.0)["status"] == Status.NOT_CONVERGED
+    assert np.isnan(sur.predict_vectors(gap, DV, DTHETA, bond=1.0)["F1"]).all()
+    assert sur.predict_vectors(gap, DV, DTHETA, bond=0.0)["status"] == Status.CONVERGED
 
 
 def test_doublet_bad_bond(dsur):

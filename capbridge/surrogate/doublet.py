@@ -508,16 +508,20 @@ class DoubletSurrogate:
         if "rupture_gap_gravity" not in self.table_:
             return rup0.copy(), np.where(bond_axial > 0, 1, 0).astype(np.int8)
         da = self.table_["rupture_gap_gravity"]
+        if "rupture_gravity_status" in self.table_:
+            ok = self.table_["rupture_gravity_status"] == Status.CONVERGED
+            da = da.where(ok)
+        dim = {_axis_name(d): d for d in da.dims}
         out = rup0.copy()
         code = np.zeros(rup0.shape, np.int8)
         for sgn in (-1.0, 1.0):
             m = (side == sgn) & (bond_axial > 0)
             if not m.any():
                 continue
-            sl = da.sel(gravity_axis=sgn) if "gravity_axis" in da.dims else da
-            bonds = np.asarray(sl["bond"].values, float)
+            sl = da.sel({dim["gravity_axis"]: sgn}) if "gravity_axis" in dim else da
+            bonds = np.asarray(sl[dim["bond"]].values, float)
             pts = {"ratio": ratio[m], "theta": theta[m], "volume": volume[m]}
-            looked = [_interp_on(sl.isel(bond=k), pts) for k in range(bonds.size)]
+            looked = [_interp_on(sl.isel({dim["bond"]: k}), pts) for k in range(bonds.size)]
             vals = np.stack([a[0] for a in looked], -1)
             cds = np.max(np.stack([a[1] for a in looked], -1), -1)
             x = bond_axial[m]
@@ -590,6 +594,17 @@ class DoubletSurrogate:
         return val
 
 
+def _axis_name(dim):
+    """The table axis a dimension of a gravity variable samples: the sub-grids of
+    :mod:`capbridge.generator.doublet_gravity` are named ``gravity_theta``,
+    ``rupture_volume``, ... (nodes of the table's own axes)."""
+    for prefix in ("gravity_", "rupture_"):
+        if dim.startswith(prefix) and dim[len(prefix):] in ("ratio", "theta", "volume", "s",
+                                                            "bond", "gravity_axis"):
+            return dim[len(prefix):]
+    return dim
+
+
 def _interp_on(da, points, fill_nan=True):
     """Multilinear interpolation of ``da`` (dims among ratio, theta, volume, s; log V*
     along volume) at ``points`` (name -> array, one entry per dim).
@@ -604,10 +619,11 @@ def _interp_on(da, points, fill_nan=True):
     code = np.zeros(n, np.int8)
     axes, xs, sel = [], [], {}
     for d in da.dims:
-        if d not in points:
+        name = _axis_name(d)
+        if name not in points:
             raise ValueError(f"{da.name}: unexpected dimension {d!r}")
         c = np.asarray(da[d].values, float)
-        x = np.broadcast_to(np.asarray(points[d], float), (n,))
+        x = np.broadcast_to(np.asarray(points[name], float), (n,))
         tol = 1e-9 * max(1.0, np.max(np.abs(c)))
         off = (x < c[0] - tol) | (x > c[-1] + tol)
         code = np.maximum(code, off.astype(np.int8))
@@ -615,7 +631,7 @@ def _interp_on(da, points, fill_nan=True):
             sel[d] = 0
             continue
         x = np.clip(x, c[0], c[-1])
-        if d == "volume":
+        if name == "volume":
             c, x = np.log(c), np.log(x)
         axes.append(c)
         xs.append(x)
