@@ -9,7 +9,13 @@ which keeps the table rectangular, makes rupture exact, and removes the square-r
 singularity of the force at the fold (F* - F*_rupt ~ sqrt(d*_rupt - d*)), so that
 smooth interpolation in s is accurate right up to rupture.
 
-Each phase (rupture distances, then bridges) is a resumable :func:`run_sweep`; a phase
+Gravity along the axis (:mod:`capbridge.generator.doublet_gravity`): two more phases,
+the first- and second-order response of the grain forces to b.n (``weight_share_axial``,
+``force_gravity_curvature_axial`` on a sub-grid) and the rupture distance with gravity
+(``rupture_gap_gravity`` on a smaller one).
+
+Each phase (rupture distances, bridges, gravity response, rupture with gravity) is a
+resumable :func:`run_sweep`; a phase
 with failed chunks stops the build (:class:`~capbridge.generator.sweep.SweepFailedError`,
 "N chunks failed, rerun to retry"): nothing is computed from placeholders, and the
 finished chunks stay in the checkpoint directory for the rerun.
@@ -24,6 +30,7 @@ import sys
 import numpy as np
 import xarray as xr
 
+from capbridge.generator.doublet_gravity import GravityPlan, gravity_datasets
 from capbridge.generator.netcdf_io import TableError, validate_table, write_table
 from capbridge.generator.sweep import run_sweep
 from capbridge.generator.young_laplace import SolverSettings, rupture_distance, solve_doublet
@@ -108,8 +115,14 @@ def bridge_chunk(gap, volume, theta, ratio):
 
 def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
                         scheduler=None, progress=True, command=None,
-                        chunk_size=128, worker_timeout=None) -> xr.Dataset:
+                        chunk_size=128, worker_timeout=None, gravity="auto") -> xr.Dataset:
     """Solve every grid point exactly and return the table as a labelled Dataset.
+
+    ``gravity``: a :class:`~capbridge.generator.doublet_gravity.GravityPlan` adds the
+    gravity phases (:mod:`capbridge.generator.doublet_gravity`), ``None`` leaves them
+    out; ``"auto"`` (default) adds them with the default plan for the shipped grid
+    (:meth:`DoubletGrid.shipped`, any ratios) and leaves them out for other grids (the
+    quick test grid: the rupture phase with gravity costs ~5 s a point).
 
     Raises :class:`~capbridge.generator.sweep.SweepFailedError` after a phase with
     failed chunks (finished ones are kept in ``checkpoint_dir`` for the rerun).
@@ -167,6 +180,18 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
     for name in OUTPUTS:
         data[name][status != Status.CONVERGED] = np.nan
     dims4 = ("ratio", "theta", "volume", "s")
+    if isinstance(gravity, str) and gravity == "auto":
+        gravity = GravityPlan() if grid == DoubletGrid.shipped(ratios=grid.ratio) else None
+    gds = None
+    if gravity is not None:
+        def phase(name, fn, inputs, size, phase_settings):
+            ckp = None if checkpoint_dir is None else f"{checkpoint_dir}/{name}"
+            return run_sweep(fn, inputs, checkpoint_dir=ckp, n_jobs=n_jobs,
+                             scheduler=scheduler, progress=progress, desc=name.replace("_", " "),
+                             chunk_size=size, settings=phase_settings,
+                             worker_timeout=wt).raise_if_failed()
+
+        gds = gravity_datasets(grid, np.where(rup_ok, d_r, np.nan), gravity, phase)
     ds = xr.Dataset(
         {name: (dims4, data[name], ATTRS[name]) for name in OUTPUTS}
         | {"gap": (dims4, np.where(status == Status.CONVERGED, gap, np.nan), ATTRS["gap"]),
@@ -180,11 +205,19 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
                 "theta": ("theta", np.asarray(grid.theta), ATTRS["theta"]),
                 "volume": ("volume", np.asarray(grid.volume), ATTRS["volume"]),
                 "s": ("s", s, ATTRS["s"])},
-        attrs={"title": "capbridge doublet capillary-force table (exact Young-Laplace, no gravity)",
+        attrs={"title": "capbridge doublet capillary-force table (exact Young-Laplace, no gravity)"
+                        if gds is None else
+                        "capbridge doublet capillary-force table (exact Young-Laplace; gravity "
+                        "along the axis: first- and second-order response and rupture "
+                        "distances)",
                "normalising_radius": "R1, the smaller sphere; ratio = R2/R1",
                "grid": json.dumps(grid.as_dict()),
                "capbridge_command": command or _this_command(),
                "solver_settings": str(settings.as_dict())})
+    if gds is not None:
+        attrs = ds.attrs | gds.attrs
+        ds = ds.merge(gds)
+        ds.attrs = attrs
     return ds
 
 

@@ -1,0 +1,352 @@
+"""Gravity in the doublet table: the response of the grain forces to gravity along the axis.
+
+Representation
+--------------
+Gravity enters as the vector b = Bo g_hat (Bo = drho g R1^2 / gamma, g_hat the unit vector
+along which gravity pulls), n is the unit vector from grain 1 to grain 2, W = V*/(2 pi)
+the liquid's weight per unit of b in F* = F/(2 pi gamma R1) units.  The force vectors of
+the liquid on the grains are represented to second order in the axial component b.n:
+
+    F1(b) = F0 n + W [w (b.n) n + (1/2)(b - (b.n) n)] + (1/2) c (b.n)^2 n,
+    F2(b) = -F0 n - (1/2) c (b.n)^2 n + W [(1 - w)(b.n) n + (1/2)(b - (b.n) n)],
+
+F0 the zero-gravity attraction (``force`` of the table), w = ``weight_share_axial`` the
+share of the weight carried by grain 1 at first order with gravity along the axis, and
+c = ``force_gravity_curvature_axial`` = d^2 F / d(b.n)^2 of the attraction F (the mean of
+the two axial forces).  F1 + F2 = W b exactly (the grains carry the whole weight).  The
+transverse share is 1/2 exactly for ratio 1 (the mirror symmetry swapping the grains) and
+taken as 1/2 otherwise; the second-order effect of the transverse component b - (b.n) n
+is not represented (a separate benchmark measures it).
+
+How w and c are computed
+------------------------
+At every node of a sub-grid of the table (:class:`GravityPlan`), the exact axisymmetric
+solver with gravity along the axis (:mod:`capbridge.generator.young_laplace_gravity`) is
+run at b.n = +h and b.n = -h (Bo = h, ``gravity_axis`` = +1 and -1: b.n = Bo g_hat.n =
+Bo gravity_axis) and at Bo = 0 (the same discretisation: the polish of the zero-gravity
+bridge on the ODE).  With the solver's signs (force1 pulls grain 1 towards grain 2,
+force2 grain 2 towards grain 1), F1_vec = force1 n and F2_vec = -force2 n, and central
+differences give
+
+    w = [force1(+h) - force1(-h)] / (2 h W),
+    c = [F(+h) - 2 F(0) + F(-h)] / h^2,       F = (force1 + force2) / 2,
+
+both with an error O(h^2).  For ratio 1 (equal angles) w = 1/2 follows from the symmetry
+(force1(+h) = force2(-h)); it is computed, not imposed, and tested.
+
+Each solve continues from the zero-gravity bridge to Bo = h by natural continuation in
+Bo, exactly as :func:`~capbridge.generator.young_laplace_gravity.solve_doublet_gravity`
+does before it switches to pseudo-arclength continuation; that switch (which walks to the
+end of the stable branch, several seconds per point) is not made here: a node where the
+natural continuation fails is NOT_CONVERGED in ``gravity_status`` (in practice the nodes
+near rupture, where the rupture distance at Bo = h is below the node's gap; see
+``rupture_gap_gravity``).  Near rupture the response is singular anyway (the rupture
+distance moves linearly, for ratio 1 faster than linearly, with b while the force goes
+as sqrt(d*_rupt - d*)).
+
+Rupture with gravity
+--------------------
+``rupture_gap_gravity`` (bond, gravity_axis, ratio, theta, volume) is the rupture distance
+of :func:`~capbridge.generator.young_laplace_gravity.rupture_distance_gravity` on a small
+sub-grid; for ratio 1 the two directions of gravity are equal by symmetry and the +1
+column is the -1 one (computed once).
+
+Reference: Miot et al. (2021), Granular Matter 23:66 (gravity on capillary bridges,
+Bo = 2.14 for r = 4 mm glass beads and water).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from capbridge.generator.young_laplace import solve_doublet
+from capbridge.generator.young_laplace_gravity import (GravitySettings, _forces, _indicator,
+                                                       _newton, _point_dict,
+                                                       _zero_gravity_start,
+                                                       rupture_distance_gravity)
+from capbridge.status import Status
+
+__all__ = ["GravityPlan", "GRAVITY_ATTRS", "axial_response", "gravity_chunk",
+           "rupture_gravity_chunk"]
+
+GRAVITY_ATTRS = {
+    "gravity_theta": dict(units="degree", long_name="contact angle on both grains "
+                                                    "(gravity-response sub-grid)"),
+    "gravity_volume": dict(units="1", long_name="liquid bridge volume V* = V/R1^3 "
+                                                "(gravity-response sub-grid)"),
+    "gravity_s": dict(units="1", long_name="gap coordinate s = sqrt(1 - d*/d*_rupt) of the "
+                                           "zero-gravity rupture (gravity-response sub-grid)"),
+    "weight_share_axial": dict(
+        units="1", long_name="share w of the liquid's weight carried by grain 1 at first "
+                             "order, gravity along the axis: dF1/d(b.n) / (V*/(2 pi))"),
+    "force_gravity_curvature_axial": dict(
+        units="1", long_name="second derivative c = d2F*/d(b.n)2 of the attraction F* "
+                             "(mean of the two axial forces) in b.n = Bo g_hat.n"),
+    "force_bond_zero": dict(
+        units="1", long_name="attraction F* at Bo = 0 on the gravity solver's "
+                             "discretisation (the F(0) of the curvature)"),
+    "rupture_bond": dict(units="1", long_name="Bond number Bo = drho g R1^2/gamma of the "
+                                              "rupture distances with gravity"),
+    "rupture_gravity_axis": dict(
+        units="1", long_name="component g_hat.n of the direction of gravity along n "
+                             "(grain 1 to grain 2): -1 grain 1 below, +1 grain 1 above"),
+    "rupture_ratio": dict(units="1", long_name="radius ratio R2/R1 (rupture sub-grid)"),
+    "rupture_theta": dict(units="degree", long_name="contact angle on both grains "
+                                                    "(rupture sub-grid)"),
+    "rupture_volume": dict(units="1", long_name="liquid bridge volume V* = V/R1^3 "
+                                                "(rupture sub-grid)"),
+    "rupture_gap_gravity": dict(units="1", long_name="rupture distance d*_rupt with gravity "
+                                                     "along the axis"),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class GravityPlan:
+    """Settings of the gravity phases of a doublet table.
+
+    ``bond_step`` h of the central differences (Bo); the response sub-grid takes every
+    ``theta_every``-th theta, ``volume_every``-th volume and ``s_every``-th s node of the
+    table counted from contact (s = 1), without s = 0 (rupture); the rupture sub-grid is
+    ``rupture_ratios`` x ``rupture_thetas`` x ``rupture_volumes`` (the nodes of the
+    table's axes nearest to them) x ``rupture_bonds`` x gravity_axis (-1, +1).
+    """
+
+    bond_step: float = 0.5
+    theta_every: int = 2
+    volume_every: int = 2
+    s_every: int = 2
+    rupture_ratios: tuple = (1.0, 2.0)
+    rupture_thetas: tuple = (0.0, 30.0, 60.0, 80.0)
+    rupture_volumes: tuple = (1e-3, 0.01, 0.1, 0.5)
+    rupture_bonds: tuple = (0.1, 0.5, 1.0, 2.14, 2.5)
+
+    def settings(self):
+        return {"bond_step": self.bond_step, "solver": GravitySettings().as_dict()}
+
+    @staticmethod
+    def _every(values, k, from_end=False):
+        idx = np.arange(len(values))
+        pick = idx[::-1][::k][::-1] if from_end else idx[::k]
+        return pick
+
+    def response_indices(self, grid):
+        """Indices (theta, volume, s) of the response sub-grid in the table's axes."""
+        s = np.asarray(grid.s)
+        i_s = self._every(s, self.s_every, from_end=True)
+        i_s = i_s[s[i_s] > 0]
+        i_v = self._every(grid.volume, self.volume_every, from_end=True)
+        return self._every(grid.theta, self.theta_every), i_v, i_s
+
+    def rupture_indices(self, grid):
+        """Indices (ratio, theta, volume) of the rupture sub-grid (nodes of the table)."""
+        def nearest(axis, wanted):
+            axis = np.asarray(axis, float)
+            return np.array(sorted({int(np.argmin(np.abs(axis - w))) for w in wanted
+                                    if axis.min() - 1e-9 <= w <= axis.max() + 1e-9}), int)
+
+        logv = np.log(np.asarray(grid.volume, float))
+        i_v = np.array(sorted({int(np.argmin(np.abs(logv - np.log(v))))
+                               for v in self.rupture_volumes}), int)
+        return (nearest(grid.ratio, self.rupture_ratios),
+                nearest(grid.theta, self.rupture_thetas), i_v)
+
+
+def _solve_natural(gap, volume, theta, ratio, bond, gravity_axis, zg, settings):
+    """Bridge at Bo = ``bond`` by natural continuation from the zero-gravity bridge ``zg``
+    (the first stage of solve_doublet_gravity, without its walk to the branch end).
+
+    Returns (forces dict at Bo = 0, forces dict at Bo) or (.., None) where it fails.
+    """
+    t1 = np.radians(theta)
+    pt = _point_dict(gap, volume, t1, t1, ratio, bond, gravity_axis)
+    z0 = _zero_gravity_start(pt, zg)
+    if not np.all(np.isfinite(z0)):
+        return None, None
+    p0 = dict(pt, b=0.0)
+    z, ok, _, J, info = _newton(z0, p0, settings)
+    if not ok or _indicator(J) <= 0:
+        return None, None
+    at_zero = _forces(z, info, p0)
+    target, sign = abs(pt["b"]), (1.0 if pt["b"] >= 0 else -1.0)
+    hist = [(0.0, z)]
+    done, step = 0.0, min(target, settings.bond_step)
+    while done < target:
+        nxt = min(done + step, target)
+        zp = z if len(hist) < 2 else z + (z - hist[-2][1]) * (nxt - done) / (done - hist[-2][0])
+        ptn = dict(pt, b=sign * nxt)
+        zn, ok, _, Jn, info_n = _newton(zp, ptn, settings, max_iter=8)
+        ok = (ok and _indicator(Jn) > 0
+              and bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp)))))
+        if ok:
+            done, z, info = nxt, zn, info_n
+            hist.append((done, z))
+            step = min(1.5 * step, settings.bond_step)
+            continue
+        step *= 0.5
+        if step < 0.2 * settings.bond_step:
+            return at_zero, None
+    return at_zero, _forces(z, info, pt)
+
+
+def axial_response(gap, volume, theta, ratio, bond_step=0.5, settings=None):
+    """First- and second-order response of a doublet to gravity along its axis.
+
+    Parameters
+    ----------
+    gap, volume : array_like
+        d* = d/R1 and V* = V/R1^3 [-].
+    theta : array_like
+        Contact angle on both grains [deg], in [0, 90).
+    ratio : array_like
+        R2/R1 in [1, 10].
+    bond_step : float
+        h [-]: the solves are at b.n = -h, 0, +h.
+    settings : GravitySettings, optional
+
+    Returns
+    -------
+    dict of 1-D arrays
+        ``weight_share_axial`` w = [force1(+h) - force1(-h)] / (2 h V*/(2 pi)) [-],
+        ``force_gravity_curvature_axial`` c = [F(+h) - 2 F(0) + F(-h)] / h^2 [F*],
+        ``force_bond_zero`` F(0) [F*], ``force1_plus``/``force1_minus``,
+        ``force_plus``/``force_minus`` (force1 and the mean attraction at b.n = +-h) and
+        ``status``: CONVERGED, NOT_CONVERGED (a solve failed: every output NaN) or the
+        zero-gravity status where that bridge is not converged.
+
+    Examples
+    --------
+    >>> r = axial_response(0.1, 0.05, 30.0, 1.0)
+    >>> abs(float(r["weight_share_axial"][0]) - 0.5) < 1e-8
+    True
+    """
+    settings = settings or GravitySettings()
+    gap, volume, theta, ratio = (np.ravel(a).astype(float)
+                                 for a in np.broadcast_arrays(gap, volume, theta, ratio))
+    n = gap.size
+    keys = ("weight_share_axial", "force_gravity_curvature_axial", "force_bond_zero",
+            "force1_plus", "force1_minus", "force_plus", "force_minus")
+    out = {k: np.full(n, np.nan) for k in keys}
+    out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
+    h = float(bond_step)
+    zg = solve_doublet(gap, volume, theta, ratio)
+    for i in range(n):
+        if zg["status"][i] != Status.CONVERGED:
+            out["status"][i] = zg["status"][i]
+            continue
+        zi = {k: zg[k][i] for k in ("pressure", "beta1", "beta2")}
+        res = [_solve_natural(gap[i], volume[i], theta[i], ratio[i], h, g, zi, settings)
+               for g in (1.0, -1.0)]
+        (f0, plus), (_, minus) = res
+        if f0 is None or plus is None or minus is None:
+            continue
+        W = volume[i] / (2.0 * np.pi)
+        out["force1_plus"][i], out["force1_minus"][i] = plus["force1"], minus["force1"]
+        out["force_plus"][i], out["force_minus"][i] = plus["force"], minus["force"]
+        out["force_bond_zero"][i] = f0["force"]
+        out["weight_share_axial"][i] = (plus["force1"] - minus["force1"]) / (2.0 * h * W)
+        out["force_gravity_curvature_axial"][i] = (
+            (plus["force"] - 2.0 * f0["force"] + minus["force"]) / h**2)
+        out["status"][i] = Status.CONVERGED
+    return out
+
+
+# Module-level chunk solvers: picklable for worker processes.
+
+def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5):
+    """Chunk of the response phase (:func:`axial_response`)."""
+    r = axial_response(gap, volume, theta, ratio, bond_step=bond_step)
+    return {"weight_share_axial": r["weight_share_axial"],
+            "force_gravity_curvature_axial": r["force_gravity_curvature_axial"],
+            "force_bond_zero": r["force_bond_zero"], "status": r["status"]}
+
+
+def rupture_gravity_chunk(volume, theta, ratio, bond, gravity_axis):
+    """Chunk of the rupture phase (:func:`rupture_distance_gravity`)."""
+    r = rupture_distance_gravity(volume, theta, bond, ratio, gravity_axis=gravity_axis)
+    return {"rupture_gap_gravity": r["gap"], "status": r["status"]}
+
+
+def gravity_datasets(grid, rupture_gap, plan, phase):
+    """The two gravity phases of a doublet table as a Dataset to merge into it.
+
+    ``rupture_gap`` (ratio, theta, volume): the zero-gravity rupture distances (NaN where
+    not found); ``phase(name, chunk_fn, inputs, chunk_size, settings)`` runs one
+    resumable sweep and returns its result.
+    """
+    import functools
+    import json
+
+    import xarray as xr
+
+    from capbridge.status import cf_flag_attributes
+
+    it, iv, i_s = plan.response_indices(grid)
+    ratio = np.asarray(grid.ratio, float)
+    th, vol, s = (np.asarray(grid.theta)[it], np.asarray(grid.volume)[iv],
+                  np.asarray(grid.s)[i_s])
+    d_r = rupture_gap[:, it][:, :, iv]
+    R, T, V, S = np.meshgrid(ratio, th, vol, s, indexing="ij")
+    gap = d_r[..., None] * (1.0 - S**2)
+    ok = np.isfinite(gap).ravel()
+    inputs = {"gap": gap.ravel()[ok], "volume": V.ravel()[ok], "theta": T.ravel()[ok],
+              "ratio": R.ravel()[ok]}
+    res = phase("gravity_response", functools.partial(gravity_chunk, bond_step=plan.bond_step),
+                inputs, len(s), plan.settings())
+    shape = R.shape
+    data = {}
+    for name in ("weight_share_axial", "force_gravity_curvature_axial", "force_bond_zero"):
+        flat = np.full(ok.size, np.nan)
+        flat[ok] = res[name]
+        data[name] = flat.reshape(shape)
+    st = np.full(ok.size, int(Status.NOT_CONVERGED), np.int8)
+    st[ok] = res["status"]
+    st = st.reshape(shape)
+    for name in data:
+        data[name][st != Status.CONVERGED] = np.nan
+    gdims = ("ratio", "gravity_theta", "gravity_volume", "gravity_s")
+    dv = {name: (gdims, arr, GRAVITY_ATTRS[name]) for name, arr in data.items()}
+    dv["gravity_status"] = (gdims, st, cf_flag_attributes() | {
+        "long_name": "status of the gravity-response solves at b.n = -h, 0, +h"})
+    # rupture with gravity
+    ir, jt, kv = plan.rupture_indices(grid)
+    rr, rt, rv = ratio[ir], np.asarray(grid.theta)[jt], np.asarray(grid.volume)[kv]
+    bonds, axes = np.asarray(plan.rupture_bonds, float), np.array([-1.0, 1.0])
+    B, G, RR, RT, RV = np.meshgrid(bonds, axes, rr, rt, rv, indexing="ij")
+    # ratio 1: both directions are equal by symmetry, the +1 one is not solved
+    need = ~((RR == 1.0) & (G == 1.0))
+    rin = {"volume": RV[need], "theta": RT[need], "ratio": RR[need], "bond": B[need],
+           "gravity_axis": G[need]}
+    rres = phase("rupture_gravity", rupture_gravity_chunk, rin, 4, GravitySettings().as_dict())
+    rg = np.full(B.shape, np.nan)
+    rs = np.full(B.shape, int(Status.NOT_CONVERGED), np.int8)
+    rg[need], rs[need] = rres["rupture_gap_gravity"], rres["status"]
+    if np.any(~need):
+        one = RR[:, 0] == 1.0                  # (bond, ratio, theta, volume)
+        rg[:, 1][one] = rg[:, 0][one]
+        rs[:, 1][one] = rs[:, 0][one]
+    rg[rs != Status.CONVERGED] = np.nan
+    rdims = ("rupture_bond", "rupture_gravity_axis", "rupture_ratio", "rupture_theta",
+             "rupture_volume")
+    dv["rupture_gap_gravity"] = (rdims, rg, GRAVITY_ATTRS["rupture_gap_gravity"])
+    dv["rupture_gravity_status"] = (rdims, rs, cf_flag_attributes() | {
+        "long_name": "status of the rupture solve with gravity"})
+    coords = {"gravity_theta": ("gravity_theta", th, GRAVITY_ATTRS["gravity_theta"]),
+              "gravity_volume": ("gravity_volume", vol, GRAVITY_ATTRS["gravity_volume"]),
+              "gravity_s": ("gravity_s", s, GRAVITY_ATTRS["gravity_s"]),
+              "rupture_bond": ("rupture_bond", bonds, GRAVITY_ATTRS["rupture_bond"]),
+              "rupture_gravity_axis": ("rupture_gravity_axis", axes,
+                                       GRAVITY_ATTRS["rupture_gravity_axis"]),
+              "rupture_ratio": ("rupture_ratio", rr, GRAVITY_ATTRS["rupture_ratio"]),
+              "rupture_theta": ("rupture_theta", rt, GRAVITY_ATTRS["rupture_theta"]),
+              "rupture_volume": ("rupture_volume", rv, GRAVITY_ATTRS["rupture_volume"])}
+    ds = xr.Dataset(dv, coords=coords)
+    ds.attrs["gravity_bond_step"] = float(plan.bond_step)
+    ds.attrs["gravity_settings"] = json.dumps(dataclasses.asdict(plan)
+                                              | {"solver": GravitySettings().as_dict()})
+    ds.attrs["gravity_representation"] = (
+        "F1(b) = F0 n + W [w (b.n) n + (b - (b.n) n)/2] + c (b.n)^2 n / 2, "
+        "F2(b) = -F0 n - c (b.n)^2 n / 2 + W [(1 - w)(b.n) n + (b - (b.n) n)/2], "
+        "b = Bo g_hat, n from grain 1 to grain 2, W = V*/(2 pi), w = weight_share_axial, "
+        "c = force_gravity_curvature_axial (see capbridge.generator.doublet_gravity)")
+    return ds

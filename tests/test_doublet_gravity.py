@@ -1,0 +1,93 @@
+"""Gravity phases of the doublet table (capbridge.generator.doublet_gravity)."""
+import numpy as np
+import pytest
+
+from capbridge.generator.doublet_gravity import GravityPlan
+from capbridge.generator.doublet_table import DoubletGrid, build_doublet_table
+from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+from capbridge.status import Status
+
+THETA, VOLUME = 30.0, 0.05
+#: tiny table: ratios 1 and 2, one angle and volume, s = 0.5 and 1 (and rupture)
+GRID = DoubletGrid((1.0, 2.0), (THETA,), (VOLUME,), (0.0, 0.5, 1.0))
+#: rupture with gravity at one small Bo, ratio 2 only (both directions differ there)
+PLAN = GravityPlan(theta_every=1, volume_every=1, s_every=1, rupture_ratios=(2.0,),
+                   rupture_thetas=(THETA,), rupture_volumes=(VOLUME,), rupture_bonds=(0.01,))
+
+
+@pytest.fixture(scope="module")
+def table():
+    return build_doublet_table(GRID, n_jobs=1, progress=False, gravity=PLAN)
+
+
+def _gap(ds, ratio, s):
+    return float(ds["rupture_gap"].sel(ratio=ratio, theta=THETA, volume=VOLUME)) * (1 - s * s)
+
+
+def test_every_point_converged(table):
+    st = table["gravity_status"].values
+    assert st.shape == (2, 1, 1, 2)
+    assert np.all(st == Status.CONVERGED)
+
+
+def test_share_is_one_half_for_equal_grains(table):
+    w = table["weight_share_axial"].sel(ratio=1.0).values
+    assert np.all(np.isfinite(w))
+    np.testing.assert_allclose(w, 0.5, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("s", [0.5, 1.0])
+def test_share_unequal_grains_matches_direct_difference(table, s):
+    w = float(table["weight_share_axial"].sel(ratio=2.0, gravity_s=s).squeeze())
+    assert abs(w - 0.5) > 0.05          # grain 1, the smaller, carries less
+    h = 0.05
+    d = _gap(table, 2.0, s)
+    r = [solve_doublet_gravity(d, VOLUME, THETA, h, 2.0, gravity_axis=g) for g in (1, -1)]
+    assert all(x["status"] == Status.CONVERGED for x in r)
+    direct = (r[0]["force1"] - r[1]["force1"]) / (2 * h * VOLUME / (2 * np.pi))
+    # central differences: O(h^2) truncation, 2.8e-5 measured at s = 0.5 for h = 0.5
+    assert abs(w - float(direct)) < 1e-4
+
+
+@pytest.mark.parametrize("ratio", [1.0, 2.0])
+def test_curvature_matches_direct_difference(table, ratio):
+    c = float(table["force_gravity_curvature_axial"].sel(ratio=ratio, gravity_s=0.5).squeeze())
+    h = 0.25                            # the table's step is 0.5
+    d = _gap(table, ratio, 0.5)
+    f = [float(solve_doublet_gravity(d, VOLUME, THETA, bo, ratio, gravity_axis=g)["force"])
+         for bo, g in ((h, 1), (0.0, -1), (h, -1))]
+    direct = (f[0] - 2 * f[1] + f[2]) / h**2
+    assert c < 0 and direct < 0         # the sagging bridge pulls less at mid-range
+    # O(h^2): 1.6e-4 (ratio 2) and 4.8e-4 (ratio 1) relative between h = 0.5 and 0.25
+    assert abs(c - direct) < 2e-3 * abs(direct)
+
+
+def test_rupture_at_small_bond_approaches_zero_gravity(table):
+    d0 = float(table["rupture_gap"].sel(ratio=2.0, theta=THETA, volume=VOLUME))
+    rg = table["rupture_gap_gravity"].sel(rupture_bond=0.01, rupture_ratio=2.0).squeeze()
+    assert np.all(table["rupture_gravity_status"].values == Status.CONVERGED)
+    below, above = float(rg.sel(rupture_gravity_axis=-1.0)), float(rg.sel(rupture_gravity_axis=1.0))
+    # the small grain below (axis -1) holds the bridge longer, above shorter
+    assert below > d0 > above
+    assert abs(below - d0) < 1e-3 * d0 and abs(above - d0) < 1e-3 * d0
+
+
+def test_new_variables_have_units_and_long_names(table):
+    new = [n for n in list(table.data_vars) + list(table.coords)
+           if n.startswith(("gravity", "rupture_gap_gravity", "rupture_gravity", "rupture_bond",
+                            "rupture_ratio", "rupture_theta", "rupture_volume",
+                            "weight_share", "force_gravity", "force_bond"))]
+    assert len(new) >= 14
+    for n in new:
+        if "status" in n:
+            assert "flag_values" in table[n].attrs and table[n].attrs["long_name"]
+        else:
+            assert table[n].attrs.get("units") and table[n].attrs.get("long_name"), n
+    assert "no gravity" not in table.attrs["title"]
+    assert table.attrs["gravity_bond_step"] == PLAN.bond_step
+
+
+def test_without_gravity_the_table_has_none():
+    ds = build_doublet_table(DoubletGrid((1.0,), (THETA,), (VOLUME,), (0.0, 1.0)), n_jobs=1,
+                             progress=False, gravity=None)
+    assert "weight_share_axial" not in ds and "no gravity" in ds.attrs["title"]
