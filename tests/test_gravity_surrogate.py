@@ -427,3 +427,43 @@ def test_doublet_predict_si_bond_and_grain_order(dsur):
     with pytest.raises(CapbridgeInputError, match="gravity"):
         dsur.predict_si(R1, R2, gamma, 5e-5, 5e-11, 30.0, density_difference=drho,
                         gravity=(1e4, 0, 0))
+
+
+# ------------------------------------------------------------- doublet, real response
+@pytest.fixture(scope="module")
+def real_doublet():
+    """A tiny doublet table with its real gravity phases (~20 s): ratios 1 and 2,
+    theta 20 and 30 deg, V* 0.03 and 0.05, s 0, 0.5, 1; rupture with gravity at
+    Bo = 0.5 for ratio 2, theta 30, V* 0.05."""
+    from capbridge.generator.doublet_gravity import GravityPlan
+    from capbridge.generator.doublet_table import DoubletGrid, build_doublet_table
+
+    grid = DoubletGrid((1.0, 2.0), (20.0, 30.0), (0.03, 0.05), (0.0, 0.5, 1.0))
+    plan = GravityPlan(theta_every=1, volume_every=1, s_every=1, rupture_ratios=(2.0,),
+                       rupture_thetas=(30.0,), rupture_volumes=(0.05,), rupture_bonds=(0.5,))
+    ds = build_doublet_table(grid, n_jobs=1, progress=False, gravity=plan)
+    return ds, DoubletSurrogate(refine=1, theta_step=10.0).fit(ds)
+
+
+@pytest.mark.parametrize("ratio", [1.0, 2.0])
+def test_doublet_real_response_against_the_exact_solver(real_doublet, ratio):
+    from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+
+    ds, sur = real_doublet
+    d0 = float(ds["rupture_gap"].sel(ratio=ratio, theta=30.0, volume=0.05))
+    gap = 0.75 * d0                                       # the node s = 0.5
+    for bo, axis, rtol in ((0.5, -1.0, 1e-9), (0.5, 1.0, 1e-9), (2.14, -1.0, 1e-3)):
+        r = sur.predict_vectors(gap, 0.05, 30.0, ratio, bond=bo, gravity=(axis, 0, 0))
+        ex = solve_doublet_gravity(gap, 0.05, 30.0, bo, ratio, gravity_axis=axis)
+        assert ex["status"] == Status.CONVERGED
+        # F1 pulls grain 1 towards grain 2 (+x), F2 grain 2 towards grain 1 (-x);
+        # at Bo = h = 0.5 the central differences reproduce the solves they came from
+        assert r["F1"][0] == pytest.approx(float(ex["force1"]), rel=rtol)
+        assert r["F2"][0] == pytest.approx(-float(ex["force2"]), rel=rtol)
+    if ratio == 2.0:
+        for axis in (-1.0, 1.0):
+            r = sur.predict_vectors(gap, 0.05, 30.0, ratio, bond=0.5, gravity=(axis, 0, 0))
+            stored = float(ds["rupture_gap_gravity"].sel(
+                rupture_bond=0.5, rupture_gravity_axis=axis).squeeze())
+            assert r["rupture_gap"] == pytest.approx(stored, rel=1e-9)
+            assert r["status"] == Status.CONVERGED

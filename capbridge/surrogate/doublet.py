@@ -412,8 +412,10 @@ class DoubletSurrogate:
             table, w (``weight_share_axial``) and c (``force_gravity_curvature_axial``)
             interpolated (multilinear, log V*) at the point's (ratio, theta, V*, s).
             ``force`` F0, ``share``, ``curvature``, ``gravity`` b, ``rupture_gap``
-            (with gravity: ``rupture_gap_gravity`` at Bo_axial = |b_n| on the side
-            gravity_axis = sign(b_n), linear in Bo from the zero-gravity value),
+            (with gravity: the zero-gravity d*_rupt times the relative shift
+            ``rupture_gap_gravity`` / ``rupture_gap`` of the rupture sub-grid, interpolated
+            at Bo_axial = |b_n| on the side gravity_axis = sign(b_n), linear in Bo from
+            1 at Bo = 0),
             ``rupture_gap_zero_gravity`` and ``status``:
 
             * gap beyond the rupture distance with gravity: RUPTURED, F1 = F2 = 0;
@@ -502,9 +504,12 @@ class DoubletSurrogate:
         return out[0], out[1], code.astype(np.int8)
 
     def _rupture_gravity(self, ratio, theta, volume, bond_axial, side, rup0):
-        """Rupture distance with gravity along the axis (``rupture_gap_gravity``): its
-        values at the ``bond`` nodes, the zero-gravity rupture distance at Bo = 0
-        (linear in between); side 0 (gravity across): the zero-gravity one."""
+        """Rupture distance with gravity along the axis: ``rup0`` (zero gravity, at the
+        point) times q = ``rupture_gap_gravity`` / ``rupture_gap`` of the sub-grid's
+        nodes, multilinear in (ratio, theta, log V*) and linear in Bo between the
+        ``bond`` nodes, q = 1 at Bo = 0; side 0 (gravity across): ``rup0``.  Code 1
+        where the point or Bo lies outside the sub-grid (its edge), 2 where a node has
+        no result."""
         if "rupture_gap_gravity" not in self.table_:
             return rup0.copy(), np.where(bond_axial > 0, 1, 0).astype(np.int8)
         da = self.table_["rupture_gap_gravity"]
@@ -512,6 +517,15 @@ class DoubletSurrogate:
             ok = self.table_["rupture_gravity_status"] == Status.CONVERGED
             da = da.where(ok)
         dim = {_axis_name(d): d for d in da.dims}
+        # relative to the zero-gravity rupture distance of the same node: the sub-grid is
+        # coarser than the table (and may not cover every ratio or angle), and the
+        # relative shift d_rupt(Bo)/d_rupt(0) varies much less across it than d_rupt
+        base = self.table_["rupture_gap"]
+        base = base.sel({a: da[dim[a]].values for a in ("ratio", "theta", "volume")
+                         if a in dim}, method="nearest")
+        base = base.rename({a: dim[a] for a in base.dims if a in dim and dim[a] != a})
+        base = base.assign_coords({d: da[d].values for d in base.dims})
+        da = da / base
         out = rup0.copy()
         code = np.zeros(rup0.shape, np.int8)
         for sgn in (-1.0, 1.0):
@@ -527,8 +541,8 @@ class DoubletSurrogate:
             x = bond_axial[m]
             if bonds[0] > 0:
                 bonds = np.concatenate([[0.0], bonds])
-                vals = np.concatenate([rup0[m][:, None], vals], -1)
-            r = np.array([np.interp(x[i], bonds, vals[i]) for i in range(x.size)])
+                vals = np.concatenate([np.ones((x.size, 1)), vals], -1)
+            r = rup0[m] * np.array([np.interp(x[i], bonds, vals[i]) for i in range(x.size)])
             above = x > bonds[-1] * (1 + 1e-12)
             out[m] = r
             code[m] = np.where(~np.isfinite(r), 2, np.where(above, 1, cds))
