@@ -549,7 +549,7 @@ def _gravity_holdout_dataset(gplan, phase):
           "gravity_holdout_direction": (dim + ("component",), a[:, 7:10],
                                         GRAVITY_ATTRS["direction"]),
           "gravity_holdout_orientation": (dim, np.array(names, dtype=object), {
-              "long_name": "orientation of gravity in the held-out check"}),
+              "units": "1", "long_name": "orientation of gravity in the held-out check"}),
           "gravity_holdout_force": (dim + ("grain", "component"), F, ATTRS["force"] | {
               "long_name": "force of the liquid on each grain with gravity, F*, direct "
                            f"Evolver minimisation at level {fine.max_refine}"}),
