@@ -200,8 +200,9 @@ HOLDOUT_CASES = (
     ((0.05, 0.12, 0.15), 40.0, 1.6, "oblique", (0.5773502691896258, -0.5773502691896258,
                                                  0.5773502691896258)),
 )
-#: Bond numbers of the held-out checks (issue 10: 0.05, 0.5, 2.14, and up to 2.5)
-HOLDOUT_BONDS = (0.0, 0.05, 0.5, 2.14, 2.5)
+#: Bond numbers of the held-out checks (issue 10: 0.05, 0.5, 2.14 and up to 2.5; 1 and 1.5
+#: locate the end of the validated range, between 0.5 and 2.14)
+HOLDOUT_BONDS = (0.0, 0.05, 0.5, 1.0, 1.5, 2.14, 2.5)
 
 
 def gravity_holdout_chunk(d12, d13, d23, theta, volume, bond, gx, gy, gz, *, plan):
