@@ -91,3 +91,29 @@ def test_without_gravity_the_table_has_none():
     ds = build_doublet_table(DoubletGrid((1.0,), (THETA,), (VOLUME,), (0.0, 1.0)), n_jobs=1,
                              progress=False, gravity=None)
     assert "weight_share_axial" not in ds and "no gravity" in ds.attrs["title"]
+
+
+def test_a_line_stops_at_its_first_failure(monkeypatch):
+    from capbridge.generator import doublet_gravity as dg
+    from capbridge.generator.young_laplace import rupture_distance
+
+    calls = []
+    real = dg.axial_response
+
+    def counted(gap, *a, **k):
+        calls.append(float(gap))
+        return real(gap, *a, **k)
+
+    monkeypatch.setattr(dg, "axial_response", counted)
+    V, th = 0.02236, 40.0
+    d0 = float(rupture_distance(V, th, 1.0)["gap"])
+    s = np.array([0.017, 1.0, 0.067])            # unordered: the chunk sorts by gap
+    gap = d0 * (1 - s**2)
+    out = dg.gravity_chunk(gap, np.full(3, V), np.full(3, th), np.ones(3))
+    # contact converges, s = 0.067 is past the rupture at Bo = 0.5 (s_crit ~ 0.15 here),
+    # s = 0.017 is not attempted
+    assert out["status"].tolist() == [Status.NOT_CONVERGED, Status.CONVERGED,
+                                      Status.NOT_CONVERGED]
+    assert calls == [gap[1], gap[2]]
+    assert np.isnan(out["weight_share_axial"][[0, 2]]).all()
+    assert abs(out["weight_share_axial"][1] - 0.5) < 1e-8
