@@ -364,12 +364,13 @@ def _info_triplet_gravity(ds, path):
           "(above: status approximate)")
     h = g.get("holdout")
     if h:
-        print(f"    held-out direct Evolver points with gravity ({h['n_cases_used']} of "
-              f"{h['n_cases']} cases answered); threshold {h['threshold']:.3g} "
+        print(f"    held-out direct Evolver points with gravity ({h['n_cases']} cases); "
+              f"threshold {h['threshold']:.3g} "
               f"({h['threshold_source']}):")
-        for b, e, f in zip(h["bonds"], h["max_error_by_bond"], h["max_effect_error_by_bond"]):
+        for b, e, f, n in zip(h["bonds"], h["max_error_by_bond"],
+                              h["max_effect_error_by_bond"], h["n_cases_by_bond"]):
             print(f"      Bo = {b:<5g} max error {e:.3g}, of the gravity effect alone {f:.3g}"
-                  " (relative to the largest grain force)")
+                  f" (relative to the largest grain force; {n} cases answered)")
 
 
 def _print_header(ds, path, axes):

@@ -245,6 +245,7 @@ def test_triplet_validated_bond_range_from_held_out_points(tsur):
     thr = sur.interpolation_error_["max_rel_to_largest"]
     assert e["threshold"] == thr and 5e-3 < thr < 0.2
     assert e["n_cases"] == e["n_cases_used"] == 5 and e["used"].all()
+    assert e["n_cases_by_bond"] == [5] * 5
     for b, err, eff in zip(e["bonds"], e["max_error_by_bond"], e["max_effect_error_by_bond"]):
         # the offset was x max|F_model| on every component; measured relative to
         # max|F_direct|, which the offset changes by at most sqrt(3) x max|F_model|

@@ -1004,7 +1004,8 @@ class TripletSurrogate:
         if e is not None:
             out["holdout"] = {k: e[k] for k in ("threshold", "threshold_source", "bonds",
                                                 "max_error_by_bond",
-                                                "max_effect_error_by_bond", "n_cases",
+                                                "max_effect_error_by_bond",
+                                                "n_cases_by_bond", "n_cases",
                                                 "n_cases_used")}
         return out
 
@@ -1353,8 +1354,11 @@ def gravity_holdout_errors(surrogate, table=None):
         ``bond``, ``orientation``, ``case`` (index of the case), ``error``,
         ``effect_error``, ``used`` (arrays over the held-out points); ``bonds``,
         ``max_error_by_bond``, ``max_effect_error_by_bond`` (lists, NaN where no case
-        answered), ``threshold``, ``threshold_source``, ``bond_max_validated``,
-        ``n_cases``, ``n_cases_used``.
+        answered), ``n_cases_by_bond`` (cases where both the direct minimisation and
+        the surrogate have a result: a case the surrogate does not answer, e.g. a cell
+        of the response without a result, is not counted against the range),
+        ``threshold``, ``threshold_source``, ``bond_max_validated``, ``n_cases``,
+        ``n_cases_used``.
     """
     from capbridge.generator.triplet import triplet_geometry
 
@@ -1399,6 +1403,7 @@ def gravity_holdout_errors(surrogate, table=None):
     used = np.isfinite(err)
     by = [float(np.max(err[used & (h["bond"] == b)])) if np.any(used & (h["bond"] == b))
           else np.nan for b in bonds]
+    nby = [int(len(set(case[used & (h["bond"] == b)].tolist()))) for b in bonds]
     eby = [float(np.nanmax(eff[used & (h["bond"] == b)]))
            if np.any(used & (h["bond"] == b) & np.isfinite(eff)) else np.nan for b in bonds]
     bmax = 0.0
@@ -1408,7 +1413,8 @@ def gravity_holdout_errors(surrogate, table=None):
         bmax = b
     return {"bond": h["bond"].astype(float), "orientation": orient, "case": case,
             "error": err, "effect_error": eff, "used": used, "bonds": bonds,
-            "max_error_by_bond": by, "max_effect_error_by_bond": eby, "threshold": thr,
+            "max_error_by_bond": by, "max_effect_error_by_bond": eby,
+            "n_cases_by_bond": nby, "threshold": thr,
             "threshold_source": "held-out pair forces without gravity, max error relative "
                                 "to the largest pair force (holdout_errors)",
             "bond_max_validated": float(bmax), "n_cases": len(cases),
