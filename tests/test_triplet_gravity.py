@@ -107,8 +107,13 @@ def table():
 
 
 def test_shipped_response_carries_the_weight_and_respects_the_mirror(table):
-    ok = table["gravity_status"].values == Status.CONVERGED
-    assert ok.mean() > 0.8
+    status = table["gravity_status"].values
+    assert (status == Status.CONVERGED).mean() > 0.8
+    # the stored residual is a max-norm in the canonical frame: compare at the canonical
+    # nodes (d12 <= d13 <= d23), whose frame is the canonical one
+    d = table["d12"].values
+    canon = (d[:, None, None] <= d[None, :, None]) & (d[None, :, None] <= d[None, None, :])
+    ok = (status == Status.CONVERGED) & canon[:, :, :, None, None]
     G = table["force_gravity_gradient"].values[ok]          # (n, grain, comp, gcomp)
     vol = (table["volume_coalescence"].values[..., None] * table["gravity_v"].values)[ok]
     W = vol / (2 * np.pi)

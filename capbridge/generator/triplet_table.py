@@ -436,7 +436,9 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     if n_holdout:
         ds = ds.merge(_holdout_dataset(grid, plan.finer(), n_holdout, seed, phase))
     if gravity is not None:
-        ds = ds.merge(_gravity_dataset(grid, gravity, canon, vref, per["status"], phase))
+        gds = _gravity_dataset(grid, gravity, canon, vref, per["status"], phase)
+        ds = ds.merge(gds)
+        ds.attrs.update(gds.attrs)            # merge keeps only the first one's attributes
     ds.attrs.update({
         "title": "capbridge coalesced-triplet capillary-force table (Surface Evolver, "
                  "three equal spheres, no gravity)",
@@ -516,7 +518,10 @@ def _gravity_dataset(grid, gplan, canon, vref, status, phase):
                                "table frame (g_hat: the direction gravity pulls)"})}
     ds = xr.Dataset(data, coords=coords)
     ds.attrs["gravity_settings"] = json.dumps(gplan.settings() | {"v": list(gv)})
-    return ds.merge(_gravity_holdout_dataset(gplan, phase))
+    hds = _gravity_holdout_dataset(gplan, phase)
+    out = ds.merge(hds)
+    out.attrs.update(ds.attrs | hds.attrs)
+    return out
 
 
 def _gravity_holdout_dataset(gplan, phase):
