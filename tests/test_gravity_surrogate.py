@@ -396,6 +396,20 @@ def test_doublet_failed_response_node_gives_no_number():
     assert sur.predict_vectors(gap, DV, DTHETA, bond=0.0)["status"] == Status.CONVERGED
 
 
+def test_doublet_response_node_above_tolerance_is_approximate():
+    ds = synthetic_doublet_table()
+    st = ds["gravity_status"].values.copy()
+    st[0, 3, 6, 5] = Status.ABOVE_TOLERANCE    # numbers kept, own error estimate too big
+    ds["gravity_status"] = (ds["gravity_status"].dims, st, {"long_name": "status"})
+    sur = DoubletSurrogate().fit(ds)
+    s_node = float(ds["gravity_s"].values[5])
+    d0 = float(sur.predict(0.0, DV, DTHETA)["rupture_gap"])
+    r = sur.predict_vectors(d0 * (1 - (s_node + 0.01) ** 2), DV, DTHETA, bond=1.0)
+    assert r["status"] == Status.APPROXIMATE and np.isfinite(r["F1"]).all()
+    far = sur.predict_vectors(d0 * (1 - 0.95**2), DV, DTHETA, bond=1.0)
+    assert far["status"] == Status.CONVERGED
+
+
 def test_doublet_bad_bond(dsur):
     with pytest.raises(CapbridgeInputError, match=r"Bo=3\.0.*\[0, 2\.5\]"):
         dsur.predict_vectors(0.05, 0.05, 30.0, bond=3.0)
@@ -453,14 +467,20 @@ def test_doublet_real_response_against_the_exact_solver(real_doublet, ratio):
     ds, sur = real_doublet
     d0 = float(ds["rupture_gap"].sel(ratio=ratio, theta=30.0, volume=0.05))
     gap = 0.75 * d0                                       # the node s = 0.5
-    for bo, axis, rtol in ((0.5, -1.0, 1e-9), (0.5, 1.0, 1e-9), (2.14, -1.0, 1e-3)):
+    node = dict(ratio=ratio, gravity_theta=30.0, gravity_volume=0.05, gravity_s=0.5)
+    est = float(ds["response_error"].sel(node))        # relative to F0, at Bo = h = 0.5
+    F0 = abs(float(ds["force"].sel(ratio=ratio, theta=30.0, volume=0.05, s=0.5)))
+    assert 0 < est < 1e-5
+    for bo, axis, tol in ((0.5, -1.0, 2 * est * F0), (0.5, 1.0, 2 * est * F0),
+                          (2.14, -1.0, 1e-3 * F0)):
         r = sur.predict_vectors(gap, 0.05, 30.0, ratio, bond=bo, gravity=(axis, 0, 0))
         ex = solve_doublet_gravity(gap, 0.05, 30.0, bo, ratio, gravity_axis=axis)
         assert ex["status"] == Status.CONVERGED
-        # F1 pulls grain 1 towards grain 2 (+x), F2 grain 2 towards grain 1 (-x);
-        # at Bo = h = 0.5 the central differences reproduce the solves they came from
-        assert r["F1"][0] == pytest.approx(float(ex["force1"]), rel=rtol)
-        assert r["F2"][0] == pytest.approx(-float(ex["force2"]), rel=rtol)
+        # F1 pulls grain 1 towards grain 2 (+x), F2 grain 2 towards grain 1 (-x); at
+        # Bo = h the representation is off by the terms it leaves out, which the node's
+        # own estimate measures (asymptotically equal: a factor 2 of margin)
+        assert r["F1"][0] == pytest.approx(float(ex["force1"]), abs=tol)
+        assert r["F2"][0] == pytest.approx(-float(ex["force2"]), abs=tol)
     if ratio == 2.0:
         for axis in (-1.0, 1.0):
             r = sur.predict_vectors(gap, 0.05, 30.0, ratio, bond=0.5, gravity=(axis, 0, 0))

@@ -22,28 +22,34 @@ How w and c are computed
 ------------------------
 At every node of a sub-grid of the table (:class:`GravityPlan`), the exact axisymmetric
 solver with gravity along the axis (:mod:`capbridge.generator.young_laplace_gravity`) is
-run at b.n = +h and b.n = -h (Bo = h, ``gravity_axis`` = +1 and -1: b.n = Bo g_hat.n =
-Bo gravity_axis) and at Bo = 0 (the same discretisation: the polish of the zero-gravity
-bridge on the ODE).  With the solver's signs (force1 pulls grain 1 towards grain 2,
-force2 grain 2 towards grain 1), F1_vec = force1 n and F2_vec = -force2 n, and central
-differences give
+run at b.n = +-h/2 and +-h (Bo = h/2, h; ``gravity_axis`` = +1 and -1: b.n = Bo
+g_hat.n = Bo gravity_axis) and at Bo = 0 (the same discretisation: the polish of the
+zero-gravity bridge on the ODE).  With the solver's signs (force1 pulls grain 1 towards
+grain 2, force2 grain 2 towards grain 1), F1_vec = force1 n and F2_vec = -force2 n, and
+central differences at the step k = h/2 and h give
 
-    w = [force1(+h) - force1(-h)] / (2 h W),
-    c = [F(+h) - 2 F(0) + F(-h)] / h^2,       F = (force1 + force2) / 2,
+    w(k) = [force1(+k) - force1(-k)] / (2 k W),
+    c(k) = [F(+k) - 2 F(0) + F(-k)] / k^2,       F = (force1 + force2) / 2,
 
-both with an error O(h^2).  For ratio 1 (equal angles) w = 1/2 follows from the symmetry
-(force1(+h) = force2(-h)); it is computed, not imposed, and tested.
+both with an error O(k^2); the table stores their Richardson extrapolation and, as the
+point's own error estimate, the terms the second-order representation leaves out at
+Bo = h, measured by the difference between the two steps (:func:`axial_response`,
+``response_error``); a point whose estimate exceeds
+``response_rtol`` of its attraction is ABOVE_TOLERANCE in ``gravity_status``.  That
+happens near rupture only: there the attraction goes as sqrt(d*_rupt(b) - d*) and the
+rupture distance moves with b (linearly, for ratio 1 quadratically), so the response is
+singular and no fixed step resolves it.  For ratio 1 (equal angles) w = 1/2 follows from
+the symmetry (force1(+k) = force2(-k)); it is computed, not imposed, and tested.
 
 Each solve continues from the zero-gravity bridge to Bo = h by natural continuation in
-Bo, exactly as :func:`~capbridge.generator.young_laplace_gravity.solve_doublet_gravity`
-does before it switches to pseudo-arclength continuation; that switch (which walks to the
-end of the stable branch, several seconds per point) is not made here: a node where the
-natural continuation fails is NOT_CONVERGED in ``gravity_status`` (in practice the nodes
-near rupture, where the rupture distance at Bo = h is below the node's gap; see
-``rupture_gap_gravity``); the nodes of a line beyond its first failure (towards
-rupture) are not attempted and are NOT_CONVERGED too (:func:`gravity_chunk`).  Near rupture the response is singular anyway (the rupture
-distance moves linearly, for ratio 1 faster than linearly, with b while the force goes
-as sqrt(d*_rupt - d*)).
+Bo (landing on h/2 on the way), exactly as
+:func:`~capbridge.generator.young_laplace_gravity.solve_doublet_gravity` does before it
+switches to pseudo-arclength continuation; that switch (which walks to the end of the
+stable branch, several seconds per point) is not made here: a node where the natural
+continuation fails is NOT_CONVERGED in ``gravity_status`` (in practice the nodes near
+rupture, where the rupture distance at Bo = h is below the node's gap; see
+``rupture_gap_gravity``); the nodes of a line beyond its first failure (towards rupture)
+are not attempted and are NOT_CONVERGED too (:func:`gravity_chunk`).
 
 Rupture with gravity
 --------------------
@@ -68,7 +74,14 @@ from capbridge.generator.young_laplace_gravity import (GravitySettings, _forces,
                                                        rupture_distance_gravity)
 from capbridge.status import Status
 
-__all__ = ["GravityPlan", "GRAVITY_ATTRS", "axial_response", "gravity_chunk",
+#: tolerance of a response point's own error estimate, relative to its attraction F0
+#: (the doublet table's held-out error is 5e-5 median, 3.5e-3 max)
+RESPONSE_RTOL = 1e-3
+
+RESPONSE_OUTPUTS = ("weight_share_axial", "force_gravity_curvature_axial",
+                    "force_bond_zero", "response_error")
+
+__all__ = ["GravityPlan", "RESPONSE_RTOL", "GRAVITY_ATTRS", "axial_response", "gravity_chunk",
            "rupture_gravity_chunk"]
 
 GRAVITY_ATTRS = {
@@ -87,6 +100,10 @@ GRAVITY_ATTRS = {
     "force_bond_zero": dict(
         units="1", long_name="attraction F* at Bo = 0 on the gravity solver's "
                              "discretisation (the F(0) of the curvature)"),
+    "response_error": dict(
+        units="1", long_name="error estimate of the second-order representation at "
+                             "Bo = h, relative to F0: (4/3)(W |dw| h + |dc| h^2 / 2) / |F0|, "
+                             "dw and dc the differences between steps h and h/2"),
     "rupture_bond": dict(units="1", long_name="Bond number Bo = drho g R1^2/gamma of the "
                                               "rupture distances with gravity"),
     "rupture_gravity_axis": dict(
@@ -106,7 +123,8 @@ GRAVITY_ATTRS = {
 class GravityPlan:
     """Settings of the gravity phases of a doublet table.
 
-    ``bond_step`` h of the central differences (Bo); the response sub-grid takes every
+    ``bond_step`` h of the central differences (Bo, with h/2 for the error estimate),
+    ``response_rtol`` the tolerance of that estimate relative to F0; the response sub-grid takes every
     ``theta_every``-th theta, ``volume_every``-th volume and ``s_every``-th s node of the
     table counted from contact (s = 1), without s = 0 (rupture); the rupture sub-grid is
     ``rupture_ratios`` x ``rupture_thetas`` x ``rupture_volumes`` (the nodes of the
@@ -114,6 +132,7 @@ class GravityPlan:
     """
 
     bond_step: float = 0.5
+    response_rtol: float = RESPONSE_RTOL
     theta_every: int = 2
     volume_every: int = 2
     s_every: int = 2
@@ -123,7 +142,9 @@ class GravityPlan:
     rupture_bonds: tuple = (0.1, 0.5, 1.0, 2.14, 2.5)
 
     def settings(self):
-        return {"bond_step": self.bond_step, "solver": GravitySettings().as_dict(),
+        return {"bond_step": self.bond_step, "response_rtol": self.response_rtol,
+                "differences": "central at h and h/2, Richardson-extrapolated",
+                "solver": GravitySettings().as_dict(),
                 "line_stop": "no attempt beyond the first failure of a line towards rupture"}
 
     @staticmethod
@@ -154,14 +175,16 @@ class GravityPlan:
                 nearest(grid.theta, self.rupture_thetas), i_v)
 
 
-def _solve_natural(gap, volume, theta, ratio, bond, gravity_axis, zg, settings):
-    """Bridge at Bo = ``bond`` by natural continuation from the zero-gravity bridge ``zg``
-    (the first stage of solve_doublet_gravity, without its walk to the branch end).
+def _solve_natural(gap, volume, theta, ratio, bonds, gravity_axis, zg, settings):
+    """Bridges at Bo = each of ``bonds`` (ascending) by natural continuation from the
+    zero-gravity bridge ``zg`` (the first stage of solve_doublet_gravity, without its walk
+    to the branch end); the continuation lands on every one of them.
 
-    Returns (forces dict at Bo = 0, forces dict at Bo) or (.., None) where it fails.
+    Returns (forces dict at Bo = 0, list of forces dicts at ``bonds``), or (.., None)
+    where the continuation fails before the last of them.
     """
     t1 = np.radians(theta)
-    pt = _point_dict(gap, volume, t1, t1, ratio, bond, gravity_axis)
+    pt = _point_dict(gap, volume, t1, t1, ratio, bonds[-1], gravity_axis)
     z0 = _zero_gravity_start(pt, zg)
     if not np.all(np.isfinite(z0)):
         return None, None
@@ -170,29 +193,50 @@ def _solve_natural(gap, volume, theta, ratio, bond, gravity_axis, zg, settings):
     if not ok or _indicator(J) <= 0:
         return None, None
     at_zero = _forces(z, info, p0)
-    target, sign = abs(pt["b"]), (1.0 if pt["b"] >= 0 else -1.0)
+    sign = 1.0 if pt["b"] >= 0 else -1.0
     hist = [(0.0, z)]
-    done, step = 0.0, min(target, settings.bond_step)
-    while done < target:
-        nxt = min(done + step, target)
-        zp = z if len(hist) < 2 else z + (z - hist[-2][1]) * (nxt - done) / (done - hist[-2][0])
-        ptn = dict(pt, b=sign * nxt)
-        zn, ok, _, Jn, info_n = _newton(zp, ptn, settings, max_iter=8)
-        ok = (ok and _indicator(Jn) > 0
-              and bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp)))))
-        if ok:
-            done, z, info = nxt, zn, info_n
-            hist.append((done, z))
-            step = min(1.5 * step, settings.bond_step)
-            continue
-        step *= 0.5
-        if step < 0.2 * settings.bond_step:
-            return at_zero, None
-    return at_zero, _forces(z, info, pt)
+    done, step, found = 0.0, min(bonds[0], settings.bond_step), []
+    for target in bonds:
+        while done < target:
+            nxt = min(done + step, target)
+            zp = (z if len(hist) < 2
+                  else z + (z - hist[-2][1]) * (nxt - done) / (done - hist[-2][0]))
+            ptn = dict(pt, b=sign * nxt)
+            zn, ok, _, Jn, info_n = _newton(zp, ptn, settings, max_iter=8)
+            ok = (ok and _indicator(Jn) > 0
+                  and bool(np.all(np.abs(zn - zp) <= 0.25 * (1.0 + np.abs(zp)))))
+            if ok:
+                done, z, info = nxt, zn, info_n
+                hist.append((done, z))
+                step = min(1.5 * step, settings.bond_step)
+                continue
+            step *= 0.5
+            if step < 0.2 * settings.bond_step:
+                return at_zero, None
+        found.append(_forces(z, info, dict(pt, b=sign * target)))
+    return at_zero, found
 
 
-def axial_response(gap, volume, theta, ratio, bond_step=0.5, settings=None):
+def axial_response(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL,
+                   settings=None):
     """First- and second-order response of a doublet to gravity along its axis.
+
+    Central differences at the steps h and h/2 (solves at b.n = 0, +-h/2, +-h), combined
+    by Richardson extrapolation (the O(h^2) error terms cancel):
+
+        w = [4 w(h/2) - w(h)] / 3,   c = [4 c(h/2) - c(h)] / 3,
+
+    with w(h) = [force1(+h) - force1(-h)] / (2 h W), c(h) = [F(+h) - 2 F(0) + F(-h)] / h^2
+    and W = V*/(2 pi).  The difference between the two steps measures the next terms of
+    the expansion, those the second-order representation leaves out: at Bo = h they
+    amount to the force
+
+        e = (4/3) [W |w(h) - w(h/2)| h + |c(h) - c(h/2)| h^2 / 2]
+
+    (w(k) = w + a k^2 + ...: the omitted cubic term at b.n = h is W a h^3 and
+    w(h) - w(h/2) = 3 a h^2 / 4), the point's own error estimate.  Near rupture the
+    expansion fails (the attraction goes as sqrt(d*_rupt(b) - d*) and d*_rupt moves with
+    b): there e grows, and a point with e > ``rtol`` |F0| is ABOVE_TOLERANCE.
 
     Parameters
     ----------
@@ -203,21 +247,24 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, settings=None):
     ratio : array_like
         R2/R1 in [1, 10].
     bond_step : float
-        h [-]: the solves are at b.n = -h, 0, +h.
+        h [-]: the solves are at b.n = 0, +-h/2 and +-h.
+    rtol : float
+        Tolerance of the error estimate e relative to the attraction |F0| at Bo = 0.
     settings : GravitySettings, optional
 
     Returns
     -------
     dict of 1-D arrays
-        ``weight_share_axial`` w = [force1(+h) - force1(-h)] / (2 h V*/(2 pi)) [-],
-        ``force_gravity_curvature_axial`` c = [F(+h) - 2 F(0) + F(-h)] / h^2 [F*],
-        ``force_bond_zero`` F(0) [F*], ``force1_plus``/``force1_minus``,
-        ``force_plus``/``force_minus`` (force1 and the mean attraction at b.n = +-h) and
-        ``status``: CONVERGED, NOT_CONVERGED (a solve failed: every output NaN) or the
-        zero-gravity status where that bridge is not converged.
+        ``weight_share_axial`` w [-], ``force_gravity_curvature_axial`` c [F*],
+        ``force_bond_zero`` F(0) [F*], ``response_error`` e / |F0| [-] and ``status``:
+        CONVERGED, ABOVE_TOLERANCE (e > rtol |F0|: numbers kept, flagged),
+        NOT_CONVERGED (a solve failed: every output NaN) or the zero-gravity status where
+        that bridge is not converged.
 
     Examples
     --------
+    Equal grains carry half of the weight each (the mirror symmetry swapping them):
+
     >>> r = axial_response(0.1, 0.05, 30.0, 1.0)
     >>> abs(float(r["weight_share_axial"][0]) - 0.5) < 1e-8
     True
@@ -227,7 +274,7 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, settings=None):
                                  for a in np.broadcast_arrays(gap, volume, theta, ratio))
     n = gap.size
     keys = ("weight_share_axial", "force_gravity_curvature_axial", "force_bond_zero",
-            "force1_plus", "force1_minus", "force_plus", "force_minus")
+            "response_error")
     out = {k: np.full(n, np.nan) for k in keys}
     out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
     h = float(bond_step)
@@ -237,26 +284,30 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, settings=None):
             out["status"][i] = zg["status"][i]
             continue
         zi = {k: zg[k][i] for k in ("pressure", "beta1", "beta2")}
-        f0, plus = _solve_natural(gap[i], volume[i], theta[i], ratio[i], h, 1.0, zi, settings)
-        if f0 is None or plus is None:
+        solves = [_solve_natural(gap[i], volume[i], theta[i], ratio[i], (0.5 * h, h), axis,
+                                 zi, settings) for axis in (1.0, -1.0)]
+        if any(f0 is None or found is None for f0, found in solves):
             continue
-        _, minus = _solve_natural(gap[i], volume[i], theta[i], ratio[i], h, -1.0, zi, settings)
-        if minus is None:
-            continue
+        f0 = solves[0][0]
         W = volume[i] / (2.0 * np.pi)
-        out["force1_plus"][i], out["force1_minus"][i] = plus["force1"], minus["force1"]
-        out["force_plus"][i], out["force_minus"][i] = plus["force"], minus["force"]
+        w, c = [], []
+        for k, step in enumerate((0.5 * h, h)):
+            plus, minus = solves[0][1][k], solves[1][1][k]
+            w.append((plus["force1"] - minus["force1"]) / (2.0 * step * W))
+            c.append((plus["force"] - 2.0 * f0["force"] + minus["force"]) / step**2)
+        err = 4.0 / 3.0 * (W * abs(w[1] - w[0]) * h + 0.5 * abs(c[1] - c[0]) * h**2)
+        out["weight_share_axial"][i] = (4.0 * w[0] - w[1]) / 3.0
+        out["force_gravity_curvature_axial"][i] = (4.0 * c[0] - c[1]) / 3.0
         out["force_bond_zero"][i] = f0["force"]
-        out["weight_share_axial"][i] = (plus["force1"] - minus["force1"]) / (2.0 * h * W)
-        out["force_gravity_curvature_axial"][i] = (
-            (plus["force"] - 2.0 * f0["force"] + minus["force"]) / h**2)
-        out["status"][i] = Status.CONVERGED
+        out["response_error"][i] = err / abs(f0["force"])
+        out["status"][i] = (Status.CONVERGED if err <= rtol * abs(f0["force"])
+                            else Status.ABOVE_TOLERANCE)
     return out
 
 
 # Module-level chunk solvers: picklable for worker processes.
 
-def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5):
+def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL):
     """Chunk of the response phase (:func:`axial_response`), line by line.
 
     The points of one (ratio, theta, volume) line are solved from contact (smallest gap)
@@ -267,9 +318,7 @@ def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5):
     and Bo is the gap interval [0, d*_rupt(Bo)]).
     """
     n = np.size(gap)
-    out = {k: np.full(n, np.nan) for k in ("weight_share_axial",
-                                            "force_gravity_curvature_axial",
-                                            "force_bond_zero")}
+    out = {k: np.full(n, np.nan) for k in RESPONSE_OUTPUTS}
     out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
     keys = np.stack([np.asarray(ratio, float), np.asarray(theta, float),
                      np.asarray(volume, float)], axis=1)
@@ -277,7 +326,8 @@ def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5):
     for j in np.unique(line):
         idx = np.flatnonzero(line.ravel() == j)
         for i in idx[np.argsort(np.asarray(gap)[idx], kind="stable")]:
-            r = axial_response(gap[i], volume[i], theta[i], ratio[i], bond_step=bond_step)
+            r = axial_response(gap[i], volume[i], theta[i], ratio[i], bond_step=bond_step,
+                               rtol=rtol)
             for k in out:
                 out[k][i] = r[k][0]
             if r["status"][0] == Status.NOT_CONVERGED:
@@ -315,23 +365,25 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
     ok = np.isfinite(gap).ravel()
     inputs = {"gap": gap.ravel()[ok], "volume": V.ravel()[ok], "theta": T.ravel()[ok],
               "ratio": R.ravel()[ok]}
-    res = phase("gravity_response", functools.partial(gravity_chunk, bond_step=plan.bond_step),
+    res = phase("gravity_response", functools.partial(gravity_chunk, bond_step=plan.bond_step,
+                                                      rtol=plan.response_rtol),
                 inputs, len(s), plan.settings())
     shape = R.shape
     data = {}
-    for name in ("weight_share_axial", "force_gravity_curvature_axial", "force_bond_zero"):
+    for name in RESPONSE_OUTPUTS:
         flat = np.full(ok.size, np.nan)
         flat[ok] = res[name]
         data[name] = flat.reshape(shape)
     st = np.full(ok.size, int(Status.NOT_CONVERGED), np.int8)
     st[ok] = res["status"]
     st = st.reshape(shape)
-    for name in data:
-        data[name][st != Status.CONVERGED] = np.nan
+    for name in data:    # ABOVE_TOLERANCE keeps its numbers (the surrogate flags them)
+        data[name][~np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))] = np.nan
     gdims = ("ratio", "gravity_theta", "gravity_volume", "gravity_s")
     dv = {name: (gdims, arr, GRAVITY_ATTRS[name]) for name, arr in data.items()}
     dv["gravity_status"] = (gdims, st, cf_flag_attributes() | {
-        "long_name": "status of the gravity-response solves at b.n = -h, 0, +h"})
+        "long_name": "status of the gravity-response solves at b.n = 0, +-h/2, +-h "
+                     "(above_tolerance: response_error > response_rtol)"})
     # rupture with gravity
     ir, jt, kv = plan.rupture_indices(grid)
     rr, rt, rv = ratio[ir], np.asarray(grid.theta)[jt], np.asarray(grid.volume)[kv]
@@ -366,6 +418,7 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
               "rupture_volume": ("rupture_volume", rv, GRAVITY_ATTRS["rupture_volume"])}
     ds = xr.Dataset(dv, coords=coords)
     ds.attrs["gravity_bond_step"] = float(plan.bond_step)
+    ds.attrs["gravity_response_rtol"] = float(plan.response_rtol)
     ds.attrs["gravity_settings"] = json.dumps(dataclasses.asdict(plan)
                                               | {"solver": GravitySettings().as_dict()})
     ds.attrs["gravity_representation"] = (

@@ -425,7 +425,9 @@ class DoubletSurrogate:
               rupture distance: APPROXIMATE (rupture under transverse gravity is not
               computed);
             * the response not available at a corner (``gravity_status``): NOT_CONVERGED;
-              a point outside the response's sub-grid: its nearest edge, APPROXIMATE.
+              a corner ABOVE_TOLERANCE (its step-halving error estimate, near rupture)
+              or a point outside the response's sub-grid (its nearest edge):
+              APPROXIMATE.
         """
         self._check_fitted()
         base = self.predict(gap, volume, theta, ratio, variables=("force",))
@@ -482,25 +484,25 @@ class DoubletSurrogate:
                 "rupture_gap": rup, "rupture_gap_zero_gravity": rup0, "status": st}
 
     def _gravity_response(self, ratio, theta, volume, s):
-        """w, c and a code (0 ok, 1 clipped to the sub-grid, 2 not available)."""
+        """w, c and a code (0 ok, 1 clipped to the sub-grid or a corner ABOVE_TOLERANCE,
+        2 not available)."""
         ds = self.table_
         pts = {"ratio": ratio, "theta": theta, "volume": volume, "s": s}
-        bad = None
-        if "gravity_status" in ds:
-            st = ds["gravity_status"]
-            bad = (~np.isin(st.values, [int(x) for x in HAS_RESULT])).astype(float)
-            bad = xr.DataArray(bad, dims=st.dims, coords={d: st[d] for d in st.dims
-                                                          if d in st.coords})
         out, codes = [], []
         for name in GRAVITY_VARIABLES:
-            da = ds[name]
-            vals, code = _interp_on(da, pts)
+            vals, code = _interp_on(ds[name], pts)
             out.append(vals)
             codes.append(code)
         code = np.maximum(codes[0], codes[1])
-        if bad is not None:
-            b, _ = _interp_on(bad, pts, fill_nan=False)
-            code = np.where(b > 0, 2, code)
+        if "gravity_status" in ds:
+            st = ds["gravity_status"]
+            coords = {d: st[d] for d in st.dims if d in st.coords}
+            for flagged, value in (
+                    (st.values == Status.ABOVE_TOLERANCE, 1),
+                    (~np.isin(st.values, [int(x) for x in HAS_RESULT]), 2)):
+                hit, _ = _interp_on(xr.DataArray(flagged.astype(float), dims=st.dims,
+                                                 coords=coords), pts, fill_nan=False)
+                code = np.where(hit > 0, np.maximum(code, value), code)
         return out[0], out[1], code.astype(np.int8)
 
     def _rupture_gravity(self, ratio, theta, volume, bond_axial, side, rup0):
