@@ -90,7 +90,7 @@ from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import (BOND_MAX, SI_DENSITY_RANGE, SI_GRAVITY_RANGE,
                                          SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          _refine_axis, si_bond)
-from capbridge.surrogate.gravity import gravity_vector, liquid_weight, triplet_gravity_forces
+from capbridge.surrogate.gravity import gravity_vector, liquid_weight
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
@@ -258,9 +258,12 @@ class _Grid:
         for i, s in zip(index[1:], self.strides[1:]):
             base = base + i * s
         if self.kernel == "multilinear":
+            # corner by corner: a (n, 2^k, nvar) gather would not stay in cache
             w = _corner_weights(fracs)
-            vals = self.flat[base[:, None] + self.offsets]            # (n, 2^k, nvar)
-            return np.einsum("nc,ncv->nv", w, vals)
+            out = np.take(self.flat, base, axis=0) * w[:, :1]
+            for c in range(1, self.offsets.size):
+                out += np.take(self.flat, base + self.offsets[c], axis=0) * w[:, c:c + 1]
+            return out
         if order is None:
             order = _Descending()
             for a, f in enumerate(fracs):
@@ -923,7 +926,8 @@ class TripletSurrogate:
         ``force_gravity_gradient`` G and ``force_gravity_curvature`` C (table frame of
         each node, :mod:`capbridge.generator.triplet_gravity`) are divided by the
         node's liquid weight W_node = v V*_coal / (2 pi) and interpolated multilinearly
-        on the raw (d12, d13, d23, theta, gravity_v) grid; a lookup multiplies them by
+        on the raw (d12, d13, d23, theta, gravity_v) grid (the simplex kernel is 2.6x
+        faster but its held-out error is 15 % larger at Bo = 1); a lookup multiplies them by
         the weight W = V*/(2 pi) of the asked volume.  Written so, sum_i G_i = W I holds
         at every point to the largest ``gravity_sum_residual`` of the cell's nodes
         (multilinear weights are a convex combination), also between nodes where
@@ -1157,12 +1161,13 @@ class TripletSurrogate:
             Vl = V[on] / s**3
             g = [gaps[on][:, m] / s for m in range(3)]
             G, Cv, resid_on, code = self._gravity_lookup(g, t[on], res["v"][on], Vl)
-            bt = np.einsum("nji,nj->ni", Q, b[on]) * (s**2)[:, None]   # lookup units
-            zero = np.zeros((bt.shape[0], 3, 3))
-            d1 = triplet_gravity_forces(zero, G, np.zeros_like(Cv), bt)
-            d2 = triplet_gravity_forces(zero, np.zeros_like(G), Cv, bt)
-            first[on] = np.einsum("nij,ngj->ngi", Q, d1) * s[:, None, None]
-            second[on] = np.einsum("nij,ngj->ngi", Q, d2) * s[:, None, None]
+            bt = np.matmul(b[on][:, None, :], Q)[:, 0] * (s**2)[:, None]   # lookup units
+            # the two terms of triplet_gravity_forces, as batched products
+            d1 = np.matmul(G, bt[:, None, :, None])[..., 0]
+            d2 = 0.5 * np.matmul(Cv, (bt**2)[:, None, :, None])[..., 0]
+            QT = np.swapaxes(Q, -1, -2) * s[:, None, None]                 # back, F* units
+            first[on] = np.matmul(d1, QT)
+            second[on] = np.matmul(d2, QT)
             resid[on] = resid_on
             st = status[on]
             has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
