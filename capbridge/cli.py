@@ -246,7 +246,8 @@ def _lookup_doublet_gravity(args, sur, columns, x, bond, direction):
 def cmd_generate_doublet(args):
     from capbridge.generator.doublet_table import (DoubletGrid, build_doublet_table,
                                                    save_doublet_table)
-    from capbridge.surrogate.doublet import DoubletSurrogate, holdout_errors
+    from capbridge.surrogate.doublet import (DoubletSurrogate, gravity_holdout_errors,
+                                             holdout_errors)
 
     from capbridge.generator.netcdf_io import check_table_target
     from capbridge.surrogate.doublet import DEFAULT_REFINE, DEFAULT_THETA_STEP
@@ -275,6 +276,9 @@ def cmd_generate_doublet(args):
         "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
         "out d* > 0.96 d*_rupt, where dF/dd* diverges at the fold; ratios on the grid and "
         "halfway between (cubic spline across ratio slices)")
+    if sur.has_gravity():
+        _gravity_holdout_attrs(ds.attrs, gravity_holdout_errors(
+            sur, n=args.gravity_holdout, progress=not args.no_progress))
     save_doublet_table(ds, args.output, command=command, overwrite=args.overwrite)
     print(f"wrote {args.output}", file=sys.stderr)
     return cmd_info_table(argparse.Namespace(table=args.output))
@@ -343,9 +347,23 @@ def _info_doublet_gravity(ds):
     if "gravity_status" in ds:
         st = np.asarray(ds["gravity_status"].values)
         print(f"    response points: {st.size}, with a result: "
-              f"{int(np.isin(st, [int(x) for x in HAS_RESULT]).sum())}")
+              f"{int(np.isin(st, [int(x) for x in HAS_RESULT]).sum())} "
+              f"({int((st == Status.ABOVE_TOLERANCE).sum())} above_tolerance: own error "
+              "estimate response_error above gravity_response_rtol)")
+    if "gravity_holdout_bonds" in ds.attrs:
+        a = ds.attrs
+        print("    held-out exact solutions with gravity along the axis (error relative to "
+              "the attraction; effect: of the gravity part alone):")
+        for k, b in enumerate(np.atleast_1d(a["gravity_holdout_bonds"])):
+            print(f"      Bo = {b:<5g} max {np.atleast_1d(a['gravity_holdout_max_error'])[k]:.3g}"
+                  f", effect max {np.atleast_1d(a['gravity_holdout_max_effect_error'])[k]:.3g}"
+                  " (converged lookups "
+                  f"{np.atleast_1d(a['gravity_holdout_max_effect_error_converged'])[k]:.3g}), "
+                  f"{np.atleast_1d(a['gravity_holdout_n'])[k]} lookups, "
+                  f"{np.atleast_1d(a['gravity_holdout_n_approximate'])[k]} approximate")
     for k, v in sorted(ds.attrs.items()):
-        if "gravity" in k:
+        if "gravity" in k and not k.startswith("gravity_holdout_") or \
+                k == "gravity_holdout_description":
             print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
 
 
@@ -428,6 +446,24 @@ def _holdout_attrs(attrs, h, quantity, tag):
     attrs[f"holdout_median_rel_error_{quantity}_{tag}"] = h["median_rel_error"]
     attrs[f"holdout_max_rel_error_{quantity}_{tag}"] = h["max_rel_error"]
     attrs[f"holdout_n_{tag}"] = h["n"]
+
+
+def _gravity_holdout_attrs(attrs, h):
+    """The doublet table's held-out check with gravity (:func:`~capbridge.surrogate.
+    doublet.gravity_holdout_errors`) as ``gravity_holdout_*`` attributes, one value per
+    Bo of ``gravity_holdout_bonds``."""
+    for k in ("bonds", "max_error", "median_error", "max_effect_error",
+              "max_effect_error_converged", "n", "n_approximate", "n_exact_failed"):
+        attrs[f"gravity_holdout_{k}"] = np.asarray(h[k], int if k.startswith("n") else float)
+    attrs["gravity_holdout_estimate_ratio_max"] = float(h["estimate_ratio_max"])
+    attrs["gravity_holdout_description"] = (
+        f"{h['n_points']} random points (theta, log V* over the response's sub-grid, "
+        f"s in [{h['exclude_band']:g}, 1], every ratio in turn), gravity along the axis "
+        "both ways, against the exact axisymmetric solver: largest error over the two "
+        "grains relative to the exact attraction at Bo = 0; effect: of the gravity part "
+        "F(b) - F(0) alone; converged: lookups whose own estimate gravity_error is below "
+        "gravity_response_rtol; estimate_ratio_max: the largest effect error over that "
+        "estimate (interpolation between the response's nodes is not in the estimate)")
 
 
 def _command_line(args):
@@ -853,6 +889,9 @@ def build_parser():
     gd.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
     gd.add_argument("--holdout", type=_number(10, 10**7, integer=True), default=600,
                     help="held-out exact points for the error model (>= 10)")
+    gd.add_argument("--gravity-holdout", type=_number(2, 10**5, integer=True), default=40,
+                    help="held-out points for the check of the gravity response (each at 5 "
+                         "Bond numbers, gravity along the axis both ways; exact solver)")
     gd.add_argument("--no-progress", action="store_true")
     gd.add_argument("--command", default=None, help=argparse.SUPPRESS)
     gd.set_defaults(func=cmd_generate_doublet)

@@ -414,7 +414,7 @@ class LiquidGravity:
             kk = k[same]
             s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
             ratio = np.maximum(ri, rj)[same] / np.minimum(ri, rj)[same]
-            ww, cc, code = sur._gravity_response(ratio, t1[same], model.vstar[kk], s)
+            ww, cc, code, _ = sur.gravity_response(ratio, t1[same], model.vstar[kk], s)
             ok = (code < 2) & np.isfinite(ww) & np.isfinite(cc)
             w[same[ok]], c[same[ok]] = ww[ok], cc[ok]
         return w, c
