@@ -84,13 +84,18 @@ RESPONSE_OUTPUTS = ("weight_share_axial", "force_gravity_curvature_axial",
 __all__ = ["GravityPlan", "RESPONSE_RTOL", "GRAVITY_ATTRS", "axial_response", "gravity_chunk",
            "rupture_gravity_chunk"]
 
+def _subgrid_axis(units, quantity, subgrid):
+    """CF attributes of an axis of one of the gravity sub-grids."""
+    return dict(units=units, long_name=f"{quantity} ({subgrid} sub-grid)")
+
+
 GRAVITY_ATTRS = {
-    "gravity_theta": dict(units="degree", long_name="contact angle on both grains "
-                                                    "(gravity-response sub-grid)"),
-    "gravity_volume": dict(units="1", long_name="liquid bridge volume V* = V/R1^3 "
-                                                "(gravity-response sub-grid)"),
-    "gravity_s": dict(units="1", long_name="gap coordinate s = sqrt(1 - d*/d*_rupt) of the "
-                                           "zero-gravity rupture (gravity-response sub-grid)"),
+    "gravity_theta": _subgrid_axis("degree", "contact angle on both grains",
+                                   "gravity-response"),
+    "gravity_volume": _subgrid_axis("1", "liquid bridge volume V* = V/R1^3",
+                                    "gravity-response"),
+    "gravity_s": _subgrid_axis("1", "gap coordinate s = sqrt(1 - d*/d*_rupt) of the "
+                                    "zero-gravity rupture", "gravity-response"),
     "weight_share_axial": dict(
         units="1", long_name="share w of the liquid's weight carried by grain 1 at first "
                              "order, gravity along the axis: dF1/d(b.n) / (V*/(2 pi))"),
@@ -109,11 +114,9 @@ GRAVITY_ATTRS = {
     "rupture_gravity_axis": dict(
         units="1", long_name="component g_hat.n of the direction of gravity along n "
                              "(grain 1 to grain 2): -1 grain 1 below, +1 grain 1 above"),
-    "rupture_ratio": dict(units="1", long_name="radius ratio R2/R1 (rupture sub-grid)"),
-    "rupture_theta": dict(units="degree", long_name="contact angle on both grains "
-                                                    "(rupture sub-grid)"),
-    "rupture_volume": dict(units="1", long_name="liquid bridge volume V* = V/R1^3 "
-                                                "(rupture sub-grid)"),
+    "rupture_ratio": _subgrid_axis("1", "radius ratio R2/R1", "rupture"),
+    "rupture_theta": _subgrid_axis("degree", "contact angle on both grains", "rupture"),
+    "rupture_volume": _subgrid_axis("1", "liquid bridge volume V* = V/R1^3", "rupture"),
     "rupture_gap_gravity": dict(units="1", long_name="rupture distance d*_rupt with gravity "
                                                      "along the axis"),
 }
