@@ -158,3 +158,66 @@ def test_a_point_too_close_to_rupture_is_flagged_and_its_estimate_bounds_its_err
     F0 = abs(float(r["force_bond_zero"][0]))
     err = abs(float(r["weight_share_axial"][0]) - _fine_share(d, V, th, R))
     assert err * V / (2 * np.pi) * 0.5 / F0 < est
+
+
+def _shipped():
+    import xarray as xr
+
+    from capbridge.cli import DEFAULT_TABLE
+
+    ds = xr.open_dataset(DEFAULT_TABLE)
+    if "weight_share_axial" not in ds:
+        ds.close()
+        pytest.skip("the shipped doublet table carries no gravity response")
+    return ds
+
+
+def test_shipped_table_resolves_a_sample_of_its_gravity_nodes():
+    """Re-solve nodes of the shipped table's gravity response (CONVERGED and
+    ABOVE_TOLERANCE ones) with the committed code: the same w, c, estimate, status."""
+    from capbridge.generator.doublet_gravity import axial_response
+
+    ds = _shipped()
+    with ds:
+        st = ds["gravity_status"]
+        rng = np.random.default_rng(7)
+        picks = []
+        for status, k in ((Status.CONVERGED, 4), (Status.ABOVE_TOLERANCE, 2)):
+            idx = np.argwhere(st.values == status)
+            assert len(idx), f"no node with status {status.name}"
+            picks += [tuple(i) for i in idx[rng.choice(len(idx), k, replace=False)]]
+        h, rtol = ds.attrs["gravity_bond_step"], ds.attrs["gravity_response_rtol"]
+        for i in picks:
+            node = {d: int(j) for d, j in zip(st.dims, i)}
+            ratio, th, V, s = (float(ds[d][node[d]]) for d in st.dims)
+            d0 = float(ds["rupture_gap"].sel(ratio=ratio, theta=th, volume=V))
+            r = axial_response(d0 * (1 - s * s), V, th, ratio, bond_step=h, rtol=rtol)
+            assert r["status"][0] == st.values[i]
+            for name in ("weight_share_axial", "force_gravity_curvature_axial",
+                         "response_error"):
+                want = float(ds[name][node])
+                assert r[name][0] == pytest.approx(want, rel=1e-7, abs=1e-12), (name, node)
+
+
+def test_shipped_table_gravity_holdout_is_stored_and_bounded():
+    ds = _shipped()
+    with ds:
+        a = ds.attrs
+        bonds = list(np.atleast_1d(a["gravity_holdout_bonds"]))
+        assert bonds == [0.05, 0.5, 1.0, 2.14, 2.5]
+        eff = np.atleast_1d(a["gravity_holdout_max_effect_error"])
+        assert np.all(np.isfinite(eff)) and np.all(np.diff(eff) > 0)
+        assert np.all(np.atleast_1d(a["gravity_holdout_n"]) > 0)
+
+
+def test_transverse_share_is_the_lever_rule_and_matches_evolver():
+    """u = 1 - x_c/D of the liquid's centre of mass: 1/2 for equal grains, and for the
+    ratio-2 doublet of benchmarks/gravity_doublet_validity.py (d* 0.1, V* 0.05, theta 20)
+    the share Surface Evolver gives the small grain under transverse gravity: 0.656 (Bo
+    0.5, level 3), 0.663 (Bo 2.14 and 2.5), 0.665 (Bo 2.14, level 4)."""
+    from capbridge.generator.doublet_gravity import axial_response
+
+    r = axial_response([0.1, 0.1], 0.05, [30.0, 20.0], [1.0, 2.0])
+    u = r["weight_share_transverse"]
+    assert abs(u[0] - 0.5) < 1e-9
+    assert abs(u[1] - 0.665) < 0.01 and abs(u[1] - 0.5) > 0.1

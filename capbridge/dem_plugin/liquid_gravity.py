@@ -12,19 +12,20 @@ as b = Bo g_hat, Bo = drho |g| r^2 / gamma, and with n the unit vector from grai
 smaller) to grain 2, b_n = b . n, b_perp = b - b_n n, W = V*/(2 pi)
 (:func:`capbridge.surrogate.gravity.doublet_gravity_forces`):
 
-    F1 = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2
-    F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2]
+    F1 = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2
+    F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp]
 
 F0 n, -F0 n are the zero-gravity forces the engine already applies; this module adds the
 rest.  In SI the part added on the two grains sums to drho V g exactly (the liquid's
 weight rides on the grains); for equal grains and angles each carries drho V g / 2.
 
-w = 1/2 is exact for equal grains and angles (mirror symmetry).  When the doublet table
-carries its gravity response (``weight_share_axial``, ``force_gravity_curvature_axial``)
-w and c are the table's at each bridge's (ratio, theta, V*, s) (:meth:`LiquidGravity.
-response`; bridges of two different angles keep 1/2 and 0); the shipped table has
-none yet, and then w = 1/2 and c = 0 for every bridge (:data:`SHARE_AXIAL`,
-:data:`CURVATURE_AXIAL`).  The bridge's rupture distance stays the zero-gravity one.
+w = u = 1/2 is exact for equal grains and angles (mirror symmetry).  When the doublet
+table carries its gravity response (``weight_share_axial``,
+``force_gravity_curvature_axial``, ``weight_share_transverse``) w, c and u are the
+table's at each bridge's (ratio, theta, V*, s) (:meth:`LiquidGravity.response`; bridges
+of two different angles keep 1/2, 0, 1/2); a table without it gives w = u = 1/2 and
+c = 0 for every bridge (:data:`SHARE_AXIAL`, :data:`CURVATURE_AXIAL`).  The bridge's
+rupture distance stays the zero-gravity one.
 
 When is it worth it
 -------------------
@@ -73,7 +74,7 @@ BOND_RANGE = 2.5
 #: Values of the engine's ``gravity_correction``.
 GRAVITY_MODES = ("auto", "on", "off")
 #: First-order share of the weight on the smaller grain, gravity along the axis, when
-#: the doublet table has no ``weight_share_axial`` (the shipped one has none yet; exact
+#: the doublet table has no ``weight_share_axial`` (exact
 #: 1/2 for equal grains and angles only).  With it: :meth:`LiquidGravity.response`.
 SHARE_AXIAL = 0.5
 #: d2F*/db_n^2 of the attraction when the doublet table has no
@@ -166,7 +167,8 @@ def relative_correction(bond, vstar, fstar, curvature=0.0):
 
 
 def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma,
-                          share=SHARE_AXIAL, curvature=CURVATURE_AXIAL):
+                          share=SHARE_AXIAL, curvature=CURVATURE_AXIAL,
+                          share_transverse=SHARE_AXIAL):
     """Gravity part of the forces of bridges on their two grains [N].
 
     Parameters
@@ -179,8 +181,9 @@ def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma,
     g_vec : (3,) gravity vector [m/s^2].
     drho : density difference liquid - gas [kg/m^3].
     gamma : surface tension [N/m].
-    share, curvature : (m,) or scalar
-        w and c of each bridge (:data:`SHARE_AXIAL`, :data:`CURVATURE_AXIAL` by default).
+    share, curvature, share_transverse : (m,) or scalar
+        w, c and u of each bridge (:data:`SHARE_AXIAL`, :data:`CURVATURE_AXIAL`,
+        :data:`SHARE_AXIAL` by default).
 
     Returns
     -------
@@ -196,7 +199,7 @@ def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma,
     n = d / dist[:, None]
     i_small = r_i <= r_j
     n1 = np.where(i_small[:, None], n, -n)          # from the smaller grain to the other
-    f1, f2 = doublet_gravity_forces(0.0, n1, vstar, b, share, curvature)
+    f1, f2 = doublet_gravity_forces(0.0, n1, vstar, b, share, curvature, share_transverse)
     f1 *= fscale[:, None]
     f2 *= fscale[:, None]
     return np.where(i_small[:, None], f1, f2), np.where(i_small[:, None], f2, f1)
@@ -311,9 +314,9 @@ class LiquidGravity:
                         "largest_relative_correction": rel, "table_error": self.eps,
                         "gravity": self.g.tolist(), "liquid_density": self.drho}
         extra = "" if not self.applied else (
-            "; weight share w and curvature c from the doublet table's gravity response "
-            "(equal angles; w = 1/2, c = 0 for mixed angles)" if self.doublet_response
-            else "; w = 1/2, c = 0 (the doublet table has no gravity response)")
+            "; weight shares w, u and curvature c from the doublet table's gravity response "
+            "(equal angles; w = u = 1/2, c = 0 for mixed angles)" if self.doublet_response
+            else "; w = u = 1/2, c = 0 (the doublet table has no gravity response)")
         self.clusters_on = False
         if self.applied and getattr(eng, "triplet_forces", False):
             self.clusters_on = triplet_table_has_gravity(eng.triplet_table)
@@ -372,12 +375,12 @@ class LiquidGravity:
                                            CURVATURE_AXIAL) > self.eps
             k = np.flatnonzero(use)
             self.n_corrected = int(k.size)
-            w, c = (self.response(model, geom, k) if self.doublet_response
-                    else (SHARE_AXIAL, CURVATURE_AXIAL))
+            w, c, u = (self.response(model, geom, k) if self.doublet_response
+                       else (SHARE_AXIAL, CURVATURE_AXIAL, SHARE_AXIAL))
             fi, fj = bridge_gravity_forces(geom["d"][k], geom["dist"][k],
                                            model.radii[model.bi[k]], model.radii[model.bj[k]],
                                            model.vstar[k], model.fscale[k], self.g, self.drho,
-                                           self.gamma, w, c)
+                                           self.gamma, w, c, u)
             xyz = np.arange(3)
             new = (np.bincount((3 * model.bi[k, None] + xyz).ravel(), fi.ravel(),
                                minlength=3 * n)
@@ -397,11 +400,11 @@ class LiquidGravity:
 
     @staticmethod
     def response(model, geom, k):
-        """w and c of bridges ``k`` at their current gaps from the doublet table's
+        """w, c and u of bridges ``k`` at their current gaps from the doublet table's
         gravity response (``weight_share_axial``, ``force_gravity_curvature_axial``,
-        interpolated by the surrogate at (ratio, theta, V*, s)).  Bridges of two
-        different angles (the table has equal angles) and points where the response
-        has no number keep w = 1/2, c = 0."""
+        ``weight_share_transverse``, interpolated by the surrogate at (ratio, theta, V*,
+        s)).  Bridges of two different angles (the table has equal angles) and points
+        where the response has no number keep w = u = 1/2, c = 0."""
         sur = model.table.surrogate
         bi, bj = model.bi[k], model.bj[k]
         ri, rj = model.radii[bi], model.radii[bj]
@@ -409,15 +412,18 @@ class LiquidGravity:
         t1, t2 = model.theta[small], model.theta[large]
         w = np.full(k.size, SHARE_AXIAL)
         c = np.full(k.size, CURVATURE_AXIAL)
+        u = np.full(k.size, SHARE_AXIAL)
         same = np.flatnonzero(np.abs(t1 - t2) <= 1e-9)
         if same.size:
             kk = k[same]
             s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
             ratio = np.maximum(ri, rj)[same] / np.minimum(ri, rj)[same]
-            ww, cc, code, _ = sur.gravity_response(ratio, t1[same], model.vstar[kk], s)
-            ok = (code < 2) & np.isfinite(ww) & np.isfinite(cc)
-            w[same[ok]], c[same[ok]] = ww[ok], cc[ok]
-        return w, c
+            r = sur.gravity_response(ratio, t1[same], model.vstar[kk], s)
+            ok = (r["code"] < 2) & np.isfinite(r["share"]) & np.isfinite(r["curvature"]) \
+                & np.isfinite(r["share_transverse"])
+            w[same[ok]], c[same[ok]] = r["share"][ok], r["curvature"][ok]
+            u[same[ok]] = r["share_transverse"][ok]
+        return w, c, u
 
     # ------------------------------------------------------------------ state
     def get_state(self):

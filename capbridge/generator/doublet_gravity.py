@@ -7,16 +7,18 @@ along which gravity pulls), n is the unit vector from grain 1 to grain 2, W = V*
 the liquid's weight per unit of b in F* = F/(2 pi gamma R1) units.  The force vectors of
 the liquid on the grains are represented to second order in the axial component b.n:
 
-    F1(b) = F0 n + W [w (b.n) n + (1/2)(b - (b.n) n)] + (1/2) c (b.n)^2 n,
-    F2(b) = -F0 n - (1/2) c (b.n)^2 n + W [(1 - w)(b.n) n + (1/2)(b - (b.n) n)],
+    F1(b) = F0 n + W [w (b.n) n + u (b - (b.n) n)] + (1/2) c (b.n)^2 n,
+    F2(b) = -F0 n - (1/2) c (b.n)^2 n + W [(1 - w)(b.n) n + (1 - u)(b - (b.n) n)],
 
 F0 the zero-gravity attraction (``force`` of the table), w = ``weight_share_axial`` the
-share of the weight carried by grain 1 at first order with gravity along the axis, and
+share of the weight carried by grain 1 at first order with gravity along the axis,
 c = ``force_gravity_curvature_axial`` = d^2 F / d(b.n)^2 of the attraction F (the mean of
-the two axial forces).  F1 + F2 = W b exactly (the grains carry the whole weight).  The
-transverse share is 1/2 exactly for ratio 1 (the mirror symmetry swapping the grains) and
-taken as 1/2 otherwise; the second-order effect of the transverse component b - (b.n) n
-is not represented (a separate benchmark measures it).
+the two axial forces) and u = ``weight_share_transverse`` the share of the transverse
+weight on grain 1, the lever rule 1 - x_c/D of the liquid's centre of mass (exact at first
+order: :func:`capbridge.surrogate.gravity.transverse_weight_share`).  F1 + F2 = W b
+exactly (the grains carry the whole weight).  The second-order effect of the transverse
+component b - (b.n) n is not represented (``benchmarks/gravity_doublet_validity.py``
+measures it: 2e-4 of F0 at Bo = 2.14 for equal grains).
 
 How w and c are computed
 ------------------------
@@ -67,19 +69,21 @@ import dataclasses
 
 import numpy as np
 
+from capbridge.dimensionless import centre_distance
 from capbridge.generator.young_laplace import solve_doublet
 from capbridge.generator.young_laplace_gravity import (GravitySettings, _forces, _indicator,
                                                        _newton, _point_dict,
                                                        _zero_gravity_start,
                                                        rupture_distance_gravity)
 from capbridge.status import Status
+from capbridge.surrogate.gravity import transverse_weight_share
 
 #: tolerance of a response point's own error estimate, relative to its attraction F0
 #: (the doublet table's held-out error is 5e-5 median, 3.5e-3 max)
 RESPONSE_RTOL = 1e-3
 
 RESPONSE_OUTPUTS = ("weight_share_axial", "force_gravity_curvature_axial",
-                    "force_bond_zero", "response_error")
+                    "weight_share_transverse", "force_bond_zero", "response_error")
 
 __all__ = ["GravityPlan", "RESPONSE_RTOL", "GRAVITY_ATTRS", "axial_response", "gravity_chunk",
            "rupture_gravity_chunk"]
@@ -102,6 +106,10 @@ GRAVITY_ATTRS = {
     "force_gravity_curvature_axial": dict(
         units="1", long_name="second derivative c = d2F*/d(b.n)2 of the attraction F* "
                              "(mean of the two axial forces) in b.n = Bo g_hat.n"),
+    "weight_share_transverse": dict(
+        units="1", long_name="share u of the transverse weight carried by grain 1 at first "
+                             "order: 1 - x_c/D (lever rule, x_c the liquid's centre of mass "
+                             "from the centre of grain 1, D the centre distance)"),
     "force_bond_zero": dict(
         units="1", long_name="attraction F* at Bo = 0 on the gravity solver's "
                              "discretisation (the F(0) of the curvature)"),
@@ -259,6 +267,7 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL,
     -------
     dict of 1-D arrays
         ``weight_share_axial`` w [-], ``force_gravity_curvature_axial`` c [F*],
+        ``weight_share_transverse`` u [-] (lever rule of the Bo = 0 bridge),
         ``force_bond_zero`` F(0) [F*], ``response_error`` e / |F0| [-] and ``status``:
         CONVERGED, ABOVE_TOLERANCE (e > rtol |F0|: numbers kept, flagged),
         NOT_CONVERGED (a solve failed: every output NaN) or the zero-gravity status where
@@ -276,9 +285,7 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL,
     gap, volume, theta, ratio = (np.ravel(a).astype(float)
                                  for a in np.broadcast_arrays(gap, volume, theta, ratio))
     n = gap.size
-    keys = ("weight_share_axial", "force_gravity_curvature_axial", "force_bond_zero",
-            "response_error")
-    out = {k: np.full(n, np.nan) for k in keys}
+    out = {k: np.full(n, np.nan) for k in RESPONSE_OUTPUTS}
     out["status"] = np.full(n, int(Status.NOT_CONVERGED), np.int8)
     h = float(bond_step)
     zg = solve_doublet(gap, volume, theta, ratio)
@@ -302,6 +309,8 @@ def axial_response(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL,
         out["weight_share_axial"][i] = (4.0 * w[0] - w[1]) / 3.0
         out["force_gravity_curvature_axial"][i] = (4.0 * c[0] - c[1]) / 3.0
         out["force_bond_zero"][i] = f0["force"]
+        out["weight_share_transverse"][i] = transverse_weight_share(
+            f0["moment"], f0["volume"], centre_distance(gap[i], ratio[i]))
         out["response_error"][i] = err / abs(f0["force"])
         out["status"][i] = (Status.CONVERGED if err <= rtol * abs(f0["force"])
                             else Status.ABOVE_TOLERANCE)
@@ -425,8 +434,9 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
     ds.attrs["gravity_settings"] = json.dumps(dataclasses.asdict(plan)
                                               | {"solver": GravitySettings().as_dict()})
     ds.attrs["gravity_representation"] = (
-        "F1(b) = F0 n + W [w (b.n) n + (b - (b.n) n)/2] + c (b.n)^2 n / 2, "
-        "F2(b) = -F0 n - c (b.n)^2 n / 2 + W [(1 - w)(b.n) n + (b - (b.n) n)/2], "
+        "F1(b) = F0 n + W [w (b.n) n + u (b - (b.n) n)] + c (b.n)^2 n / 2, "
+        "F2(b) = -F0 n - c (b.n)^2 n / 2 + W [(1 - w)(b.n) n + (1 - u)(b - (b.n) n)], "
         "b = Bo g_hat, n from grain 1 to grain 2, W = V*/(2 pi), w = weight_share_axial, "
-        "c = force_gravity_curvature_axial (see capbridge.generator.doublet_gravity)")
+        "c = force_gravity_curvature_axial, u = weight_share_transverse "
+        "(see capbridge.generator.doublet_gravity)")
     return ds

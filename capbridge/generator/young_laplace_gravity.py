@@ -301,6 +301,7 @@ def _forces(z, info, pt):
     return dict(force1=F1, force2=F2, force=0.5 * (F1 + F2), pressure=pm,
                 pressure_centre1=p0, beta1=np.degrees(b1), beta2=np.degrees(b2),
                 area=area, energy=energy, volume=info["vol"], neck_radius=info["ymin"],
+                moment=moment,
                 weight=abs(b) * info["vol"] / (2.0 * np.pi))
 
 
@@ -619,8 +620,8 @@ def _continue_in_bond(z0, pt, settings):
 # --------------------------------------------------------------------------------------
 
 _KEYS = ("force", "force1", "force2", "weight", "pressure", "pressure_centre1", "beta1",
-         "beta2", "neck_radius", "area", "energy", "volume", "gap", "bond", "indicator",
-         "rupture_bond")
+         "beta2", "neck_radius", "area", "energy", "volume", "moment", "gap", "bond",
+         "indicator", "rupture_bond")
 
 
 def _check_gravity_axis(gravity_axis):
@@ -669,6 +670,8 @@ def solve_doublet_gravity(gap, volume, theta, bond, ratio=1.0, theta2=None,
         neck_radius, area, volume, gap, bond : [-].
         energy : E* = A - cos t1 A_w1 - cos t2 A_w2 + b int x dV (x from the centre of
             grain 1) [-].
+        moment : int x dV, the liquid's first moment about the centre of grain 1 along
+            the axis [-] (its centre of mass is at moment / volume).
         indicator : stability indicator (> 0 on the stable branch).
         status : capbridge.status.Status (CONVERGED or NOT_CONVERGED; see the module
             docstring), iterations, steps (continuation steps in Bo).

@@ -409,13 +409,15 @@ class DoubletSurrogate:
             ``F1``, ``F2`` (..., 3): forces on grain 1 and 2 [F*], from
             :func:`~capbridge.surrogate.gravity.doublet_gravity_forces`,
 
-                F1 = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2,
-                F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2],
+                F1 = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2,
+                F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp],
 
             W = V*/(2 pi), b = Bo g_hat, b_n = b . n; F0 the zero-gravity force of the
-            table, w (``weight_share_axial``) and c (``force_gravity_curvature_axial``)
+            table, w (``weight_share_axial``), c (``force_gravity_curvature_axial``) and
+            u (``weight_share_transverse``, the lever rule; 1/2 if the table has none)
             interpolated (multilinear, log V*) at the point's (ratio, theta, V*, s).
-            ``force`` F0, ``share``, ``curvature``, ``gravity`` b, ``rupture_gap``
+            ``force`` F0, ``share``, ``curvature``, ``share_transverse``,
+            ``gravity_error`` (below), ``gravity`` b, ``rupture_gap``
             (with gravity: the zero-gravity d*_rupt times the relative shift
             ``rupture_gap_gravity`` / ``rupture_gap`` of the rupture sub-grid, interpolated
             at Bo_axial = |b_n| on the side gravity_axis = sign(b_n), linear in Bo from
@@ -436,10 +438,9 @@ class DoubletSurrogate:
               APPROXIMATE.  It estimates the error of the gravity part relative to |F0|:
               the terms the representation leaves out along the axis, the nodes'
               ``response_error`` e (at Bo = h) scaled as (|b_n|/h)^3, or ^4 beyond h
-              (the leading omitted term is cubic, quartic for equal grains), plus for
-              unequal grains W |b_perp| / 2, the largest error of the transverse share
-              1/2 (not computed; direct Evolver runs give 0.66 on the smaller grain at
-              ratio 2, ``benchmarks/gravity_doublet_validity.json``).
+              (the leading omitted term is cubic, quartic for equal grains); for a table
+              without ``weight_share_transverse`` and unequal grains also W |b_perp| / 2,
+              the largest error of taking the transverse share as 1/2.
         """
         self._check_fitted()
         base = self.predict(gap, volume, theta, ratio, variables=("force",))
@@ -457,15 +458,18 @@ class DoubletSurrogate:
         rup0 = np.array(base["rupture_gap"], float)
         rup = rup0.copy()
         share = np.full(shape, 0.5)
+        share_t = np.full(shape, 0.5)
         curv = np.zeros(shape)
         gerr = np.zeros(shape)
         on = bo > 0
         if on.any():
             bn = b[..., 0]
             s = np.sqrt(np.clip(1.0 - g / rup0, 0.0, 1.0))
-            w, c, code, e_node = self.gravity_response(R[on], t[on], V[on], s[on])
-            share[on], curv[on] = w, c
-            est = self._gravity_error(e_node, b[on], R[on], V[on], F0[on])
+            resp = self.gravity_response(R[on], t[on], V[on], s[on])
+            share[on], curv[on] = resp["share"], resp["curvature"]
+            share_t[on] = resp["share_transverse"]
+            code = resp["code"]
+            est = self._gravity_error(resp["error"], b[on], R[on], V[on], F0[on])
             gerr[on] = est
             rg, rcode = self._rupture_gravity(R[on], t[on], V[on], np.abs(bn[on]),
                                               np.sign(bn[on]), rup0[on])
@@ -488,7 +492,7 @@ class DoubletSurrogate:
                            np.int8(Status.APPROXIMATE), sto)
             st[on] = sto
         n = np.broadcast_to(np.array([1.0, 0.0, 0.0]), shape + (3,))
-        F1, F2 = doublet_gravity_forces(F0, n, V, b, share, curv)
+        F1, F2 = doublet_gravity_forces(F0, n, V, b, share, curv, share_t)
         F1 = np.where(on[..., None], F1, F0[..., None] * n)
         F2 = np.where(on[..., None], F2, -F0[..., None] * n)
         ruptured = st == Status.RUPTURED
@@ -497,7 +501,8 @@ class DoubletSurrogate:
             F[ruptured] = 0.0
             F[nores] = np.nan
         return {"F1": F1, "F2": F2, "force": np.where(nores, np.nan, F0),
-                "share": share, "curvature": curv, "gravity": np.array(b),
+                "share": share, "curvature": curv, "share_transverse": share_t,
+                "gravity": np.array(b),
                 "gravity_error": np.where(nores, np.nan, gerr),
                 "rupture_gap": rup, "rupture_gap_zero_gravity": rup0, "status": st}
 
@@ -507,23 +512,33 @@ class DoubletSurrogate:
         x = np.abs(b[:, 0]) / h
         axial = e_node * np.where(x <= 1.0, x**3, x**4)
         b_perp = np.linalg.norm(b[:, 1:], axis=-1)
-        transverse = np.where(ratio > 1.0 + 1e-12, 0.5 * liquid_weight(volume) * b_perp, 0.0)
+        unknown = (ratio > 1.0 + 1e-12) & ("weight_share_transverse" not in self.table_)
+        transverse = np.where(unknown, 0.5 * liquid_weight(volume) * b_perp, 0.0)
         return axial + transverse / np.maximum(np.abs(F0), 1e-300)
 
     def gravity_response(self, ratio, theta, volume, s):
-        """w, c, a code (0 ok, 1 clipped to the sub-grid or a corner ABOVE_TOLERANCE,
-        2 not available) and the nodes' own error estimate ``response_error``
-        (interpolated; 0 for a table without it)."""
+        """The table's gravity response at points (ratio, theta [deg], V*, s).
+
+        Returns a dict of arrays: ``share`` w, ``curvature`` c, ``share_transverse`` u
+        (1/2 for a table without ``weight_share_transverse``), ``error`` the nodes' own
+        estimate ``response_error`` (0 for a table without it), all interpolated, and
+        ``code``: 0 ok, 1 clipped to the sub-grid or a corner ABOVE_TOLERANCE, 2 not
+        available.
+        """
         ds = self.table_
         pts = {"ratio": ratio, "theta": theta, "volume": volume, "s": s}
-        out, codes = [], []
-        for name in GRAVITY_VARIABLES:
-            vals, code = _interp_on(ds[name], pts)
-            out.append(vals)
-            codes.append(code)
-        code = np.maximum(codes[0], codes[1])
-        err = (np.nan_to_num(_interp_on(ds["response_error"], pts)[0], nan=0.0)
-               if "response_error" in ds else np.zeros(code.shape))
+        out, code = {}, np.zeros(np.size(ratio), np.int8)
+        for key, name, default in (("share", "weight_share_axial", None),
+                                   ("curvature", "force_gravity_curvature_axial", None),
+                                   ("share_transverse", "weight_share_transverse", 0.5),
+                                   ("error", "response_error", 0.0)):
+            if name not in ds:
+                out[key] = np.full(code.shape, default)
+                continue
+            vals, c = _interp_on(ds[name], pts)
+            if default is None or key == "share_transverse":
+                code = np.maximum(code, c)
+            out[key] = vals if key != "error" else np.nan_to_num(vals, nan=0.0)
         if "gravity_status" in ds:
             st = ds["gravity_status"]
             coords = {d: st[d] for d in st.dims if d in st.coords}
@@ -533,7 +548,8 @@ class DoubletSurrogate:
                 hit, _ = _interp_on(xr.DataArray(flagged.astype(float), dims=st.dims,
                                                  coords=coords), pts, fill_nan=False)
                 code = np.where(hit > 0, np.maximum(code, value), code)
-        return out[0], out[1], code.astype(np.int8), err
+        out["code"] = code.astype(np.int8)
+        return out
 
     def _rupture_gravity(self, ratio, theta, volume, bond_axial, side, rup0):
         """Rupture distance with gravity along the axis: ``rup0`` (zero gravity, at the

@@ -8,14 +8,24 @@ changes the capillary forces themselves at second order.
 
 Doublet (n the unit vector from grain 1 to grain 2, b_n = b . n, b_perp = b - b_n n):
 
-    F1 = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2
-    F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2]
+    F1 = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2
+    F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp]
 
 w is the share of the weight grain 1 carries at first order with gravity along the axis
 (1/2 for equal grains and angles, by the mirror symmetry that swaps them), c the second
 derivative of the attraction in b_n (exact axisymmetric solver with gravity,
-:mod:`capbridge.generator.young_laplace_gravity`).  The transverse share is 1/2 exactly for
-equal grains, by the same symmetry, and taken as 1/2 otherwise.
+:mod:`capbridge.generator.young_laplace_gravity`), and u the share of the transverse weight
+on grain 1, which is the lever rule (:func:`transverse_weight_share`):
+
+    u = 1 - x_c / D,
+
+x_c the distance of the liquid's centre of mass from the centre of grain 1 along n, D the
+distance between the centres.  It is exact at first order in b_perp: the liquid exerts no
+torque on a sphere about the sphere's centre (pressure acts along the normal, through the
+centre; the tension's component along the surface, gamma cos(theta) normal to the contact
+line in the surface, integrates to a torque gamma cos(theta) R times the closed contact
+line's tangent integral, zero), so the torque balance of the liquid about the centre of
+grain 1 is D n x F2 = x_c n x W b_perp at first order.  For equal grains and angles u = 1/2.
 
 Triplet (table frame of :mod:`capbridge.generator.triplet_table`):
 
@@ -34,8 +44,8 @@ import numpy as np
 
 from capbridge.validation import CapbridgeInputError
 
-__all__ = ["gravity_vector", "liquid_weight", "doublet_gravity_forces",
-           "triplet_gravity_forces"]
+__all__ = ["gravity_vector", "liquid_weight", "transverse_weight_share",
+           "doublet_gravity_forces", "triplet_gravity_forces"]
 
 
 def gravity_vector(bond, direction):
@@ -83,7 +93,42 @@ def liquid_weight(volume):
     return np.asarray(volume, float) / (2 * np.pi)
 
 
-def doublet_gravity_forces(force, axis, volume, b, share_axial=0.5, curvature_axial=0.0):
+def transverse_weight_share(moment, volume, centre_distance):
+    """Share u of the transverse weight carried by grain 1 of a doublet (lever rule).
+
+    u = 1 - x_c / D, x_c = (int x dV) / V the axial position of the liquid's centre of mass
+    measured from the centre of grain 1 and D the distance between the centres; exact at
+    first order in the transverse component of gravity (module docstring).
+
+    Parameters
+    ----------
+    moment : array_like
+        First moment int x dV of the liquid about the centre of grain 1 along n [R1^4].
+    volume : array_like
+        Liquid volume V* [R1^3].
+    centre_distance : array_like
+        D = 1 + R2/R1 + d* [R1].
+
+    Returns
+    -------
+    ndarray
+
+    Examples
+    --------
+    The liquid of a doublet of ratio 2 at d* = 0.1 (V* = 0.05, theta = 20 deg) has its
+    centre of mass at x_c = 1.0444 of D = 3.1 (exact bridge): the small grain carries 0.663
+    of the transverse weight; direct Surface Evolver minimisations with gravity across
+    give 0.656-0.665 (``benchmarks/gravity_doublet_validity.json``).
+
+    >>> round(float(transverse_weight_share(1.0443558 * 0.05, 0.05, 3.1)), 4)
+    0.6631
+    """
+    return 1.0 - np.asarray(moment, float) / (np.asarray(volume, float)
+                                              * np.asarray(centre_distance, float))
+
+
+def doublet_gravity_forces(force, axis, volume, b, share_axial=0.5, curvature_axial=0.0,
+                           share_transverse=0.5):
     """Force vectors of the liquid on the two grains of a doublet with gravity.
 
     Parameters
@@ -100,6 +145,9 @@ def doublet_gravity_forces(force, axis, volume, b, share_axial=0.5, curvature_ax
         w: first-order share of the weight on grain 1, gravity along the axis.
     curvature_axial : array_like (...), default 0
         c = d2F/db_n^2 of the attraction [F*].
+    share_transverse : array_like (...), default 1/2
+        u: first-order share of the transverse weight on grain 1
+        (:func:`transverse_weight_share`; 1/2 for equal grains and angles).
 
     Returns
     -------
@@ -120,11 +168,12 @@ def doublet_gravity_forces(force, axis, volume, b, share_axial=0.5, curvature_ax
     W = liquid_weight(volume)[..., None]
     w = np.asarray(share_axial, float)[..., None]
     c = np.asarray(curvature_axial, float)[..., None]
+    u = np.asarray(share_transverse, float)[..., None]
     bn = np.sum(b * n, axis=-1)[..., None]
     b_perp = b - bn * n
     attraction = F0 + 0.5 * c * bn ** 2
-    F1 = attraction * n + W * (w * bn * n + 0.5 * b_perp)
-    F2 = -attraction * n + W * ((1.0 - w) * bn * n + 0.5 * b_perp)
+    F1 = attraction * n + W * (w * bn * n + u * b_perp)
+    F2 = -attraction * n + W * ((1.0 - w) * bn * n + (1.0 - u) * b_perp)
     return F1, F2
 
 
