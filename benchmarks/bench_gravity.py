@@ -95,6 +95,39 @@ def lookup_rates(n, repeat, seed=0):
     return rates
 
 
+def doublet_holdout_lines():
+    """The doublet table's stored held-out check with gravity along the axis
+    (``gravity_holdout_*`` attributes written by ``capbridge generate doublet``)."""
+    import xarray as xr
+
+    with xr.open_dataset(DATA / "doublet_table.nc") as ds:
+        a = dict(ds.attrs)
+        st = ds["gravity_status"].values if "gravity_status" in ds else None
+    if "gravity_holdout_bonds" not in a:
+        return ["Doublet gravity response: not in `data/doublet_table.nc`.", ""]
+    col = {k: np.atleast_1d(a[f"gravity_holdout_{k}"]) for k in
+           ("bonds", "max_error", "median_error", "max_effect_error",
+            "max_effect_error_converged", "n", "n_approximate", "n_exact_failed")}
+    L = ["Doublet gravity response (`data/doublet_table.nc`, gravity along the axis: share "
+         "w and curvature c on a sub-grid, Richardson-extrapolated differences at Bo = "
+         f"{a['gravity_bond_step'] / 2:g} and {a['gravity_bond_step']:g}; "
+         f"{int((st == 7).sum())} of {st.size} nodes above their own tolerance "
+         f"{a['gravity_response_rtol']:g}) against the exact axisymmetric solver with "
+         f"gravity at held-out points ({a['gravity_holdout_description']}). Errors "
+         "relative to the attraction at Bo = 0.", "",
+         "| Bo | median error | max error | max effect error | max effect error, "
+         "`converged` lookups | lookups (approximate) | exact solution failed |",
+         "|---:|---:|---:|---:|---:|---:|---:|"]
+    for k, b in enumerate(col["bonds"]):
+        L.append(f"| {b:g} | {col['median_error'][k]:.2e} | {col['max_error'][k]:.2e} | "
+                 f"{col['max_effect_error'][k]:.2e} | "
+                 f"{col['max_effect_error_converged'][k]:.2e} | {col['n'][k]} "
+                 f"({col['n_approximate'][k]}) | {col['n_exact_failed'][k]} |")
+    L += ["", "Largest effect error over a lookup's own estimate (`gravity_error`): "
+          f"{a['gravity_holdout_estimate_ratio_max']:.3g}.", ""]
+    return L
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100_000, help="doublet lookups per round "
@@ -144,6 +177,7 @@ def main(argv=None):
           + f". Validated up to Bo = {h['bond_max_validated']:g} "
           f"({h['n_cases_used']} of {h['n_cases']} cases answered); above it lookups with "
           "gravity carry status `approximate`.", ""]
+    L += doublet_holdout_lines()
     text = "\n".join(L)
     print(text)
     if args.write:

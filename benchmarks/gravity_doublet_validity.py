@@ -11,8 +11,8 @@ per doublet, n the unit vector from grain 1 to grain 2, b = Bo g_hat (g_hat: the
 along which gravity pulls), b_n = b . n, b_perp = b - b_n n, W = V*/(2 pi), forces in
 F* = F / (2 pi gamma r) units (the force of the liquid on each grain):
 
-    F1(b) = F0 n + W [w b_n n + b_perp / 2] + c b_n^2 n / 2
-    F2(b) = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + b_perp / 2]
+    F1(b) = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2
+    F2(b) = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp]
 
 F0: exact zero-gravity attraction (:func:`capbridge.generator.young_laplace.solve_doublet`);
 w (first-order share of the weight on grain 1, gravity along the axis) and c (second
@@ -22,6 +22,10 @@ differences at b_n = +-h, h = 0.5:
 
     w = [F1(+h) - F1(-h)] / (2 h W)          (w = 1/2 exactly for equal grains and angles)
     c = [F(+h) + F(-h) - 2 F(0)] / h^2       (F the mean of the two axial forces)
+
+and u (share of the transverse weight on grain 1) the lever rule 1 - x_c/D of the Bo = 0
+bridge (:func:`capbridge.surrogate.gravity.transverse_weight_share`; runs analysed before
+it entered the model had u = 1/2).
 
 Reference: direct Surface Evolver minimisations with gravity
 (:func:`capbridge.generator.evolver.minimise_bridge`, topology "doublet", virtual-work
@@ -38,7 +42,7 @@ by comparing gravity *effects*:
 
 for the full model and for the first-order model (c = 0).  Also recorded: the axial
 component of dF_ev with gravity across the axis (the model has none: second-order change
-of the attraction), the transverse share of grain 1 (model 1/2), the sum rule
+of the attraction), the transverse share of grain 1 (model u), the sum rule
 F1 + F2 = W b of Evolver, and for gravity along the axis the exact axisymmetric gravity
 effect (separates the model's truncation from Evolver's error in the effect).
 Level check: the gravity effect at levels L and ``--check-refine`` for CHECK_CASES.
@@ -68,7 +72,9 @@ import numpy as np
 
 from capbridge.generator.young_laplace import rupture_distance, solve_doublet
 from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
-from capbridge.surrogate.gravity import doublet_gravity_forces, liquid_weight
+from capbridge.dimensionless import centre_distance
+from capbridge.surrogate.gravity import (doublet_gravity_forces, liquid_weight,
+                                         transverse_weight_share)
 
 OUT = pathlib.Path(__file__).with_name("gravity_doublet_validity.json")
 BONDS = [0.05, 0.5, 2.14, 2.5]
@@ -128,7 +134,14 @@ def model_parameters(d, V, th, ratio):
     c = float(gp["force"] + gm["force"] - 2 * F0) / H_FD**2
     return {"F0": F0, "W": W, "w_finite_difference": w_fd,
             "w": 0.5 if ratio == 1.0 else w_fd, "c": c,
+            "u": transverse_share(d, V, th, ratio),
             "status_fd": [int(gp["status"]), int(gm["status"])]}
+
+
+def transverse_share(d, V, th, ratio):
+    """u of the representation: the lever rule 1 - x_c/D of the Bo = 0 bridge."""
+    r = solve_doublet_gravity(d, V, th, 0.0, ratio)
+    return float(transverse_weight_share(r["moment"], r["volume"], centre_distance(d, ratio)))
 
 
 def exact_axial(d, V, th, ratio, bond, g_axis):
@@ -224,6 +237,8 @@ def analyse(result):
     for st in STATES:
         d, V, th, ratio = state_geometry(st)
         p = params[st]
+        if "u" not in p:                # runs stored before the lever rule was in the model
+            p["u"] = transverse_share(d, V, th, ratio)
         F0, W = p["F0"], p["W"]
         todo = [(bo, dn) for bo in BONDS for dn in directions_for(ratio)]
         todo += [(bo, dn) for dn, bo in EXTRA.get(st, [])]
@@ -243,7 +258,7 @@ def analyse(result):
             b_perp = b - bn * N_AXIS
             mods = {}
             for label, c in (("full", p["c"]), ("first_order", 0.0)):
-                F1, F2 = doublet_gravity_forces(F0, N_AXIS, V, b, p["w"], c)
+                F1, F2 = doublet_gravity_forces(F0, N_AXIS, V, b, p["w"], c, p["u"])
                 dM = np.array([F1 - F0 * N_AXIS, F2 + F0 * N_AXIS])
                 dev = np.linalg.norm(dF - dM, axis=1)
                 mods[label] = {
@@ -278,7 +293,7 @@ def analyse(result):
                     row["exact_axial_effect"] = dE.tolist()
                     row["evolver_vs_exact_over_F0"] = float(
                         np.linalg.norm(dF - dE, axis=1).max() / abs(F0))
-                    F1, F2 = doublet_gravity_forces(F0, N_AXIS, V, b, p["w"], p["c"])
+                    F1, F2 = doublet_gravity_forces(F0, N_AXIS, V, b, p["w"], p["c"], p["u"])
                     dM = np.array([F1 - F0 * N_AXIS, F2 + F0 * N_AXIS])
                     row["model_vs_exact_over_F0"] = float(
                         np.linalg.norm(dM - dE, axis=1).max() / abs(F0))
