@@ -31,7 +31,10 @@ When is it worth it
 -------------------
 The gravity part on a grain relative to the capillary attraction is about
 
-    epsilon = Bo V* / (4 pi F*)  (+ |c| Bo^2 / (2 F*), 0 while c = 0).
+    epsilon = Bo V* / (4 pi F*)
+
+(the first-order part; the second-order |c| Bo^2 / (2 F*) is left out of the decision:
+c depends on the gap, and it is smaller except near rupture).
 
 With F* the smallest attraction of the bridge's profile over s = sqrt(1 - d*/d*_rupt)
 >= 0.2 (:data:`ERROR_BAND`, d* <= 0.96 d*_rupt) this is the largest relative correction
