@@ -245,7 +245,7 @@ def _lookup_doublet_gravity(args, sur, columns, x, bond, direction):
 
 def cmd_generate_doublet(args):
     from capbridge.generator.doublet_table import (DoubletGrid, build_doublet_table,
-                                                   save_doublet_table)
+                                                   save_doublet_table, table_axes)
     from capbridge.surrogate.doublet import (DoubletSurrogate, gravity_holdout_errors,
                                              holdout_errors)
 
@@ -255,8 +255,8 @@ def cmd_generate_doublet(args):
     ratios = None if args.ratios is None else sorted(set(args.ratios))
     grid = DoubletGrid.shipped(args.quick, ratios=ratios)
     # before hours of work: can the table be written, and would it replace another grid?
-    check_table_target(args.output, {k: list(v) for k, v in grid.as_dict().items()},
-                       overwrite=args.overwrite, flag="--overwrite")
+    check_table_target(args.output, table_axes(grid), overwrite=args.overwrite,
+                       flag="--overwrite")
     command = args.command or _command_line(args)
     ds = build_doublet_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                              scheduler=args.scheduler, progress=not args.no_progress,

@@ -221,3 +221,13 @@ def test_transverse_share_is_the_lever_rule_and_matches_evolver():
     u = r["weight_share_transverse"]
     assert abs(u[0] - 0.5) < 1e-9
     assert abs(u[1] - 0.665) < 0.01 and abs(u[1] - 0.5) > 0.1
+
+
+def test_the_axes_checked_before_the_sweep_are_those_of_the_table(table):
+    # generate doublet compares an existing file with these before hours of solves; the
+    # file written at the end must have exactly them (else it is refused only then)
+    from capbridge.generator.doublet_table import table_axes
+    from capbridge.generator.netcdf_io import _same_grid, table_grid
+
+    assert _same_grid(table_axes(GRID, PLAN), table_grid(table))
+    assert not _same_grid(table_axes(GRID, None), table_grid(table))

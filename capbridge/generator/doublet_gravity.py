@@ -172,6 +172,19 @@ class GravityPlan:
         i_v = self._every(grid.volume, self.volume_every, from_end=True)
         return self._every(grid.theta, self.theta_every), i_v, i_s
 
+    def axes(self, grid):
+        """Coordinates of the gravity sub-grids of a table of ``grid`` (name -> values):
+        what the table's gravity dimensions will hold, known before any solve."""
+        it, iv, i_s = self.response_indices(grid)
+        ir, jt, kv = self.rupture_indices(grid)
+        th, vol = np.asarray(grid.theta, float), np.asarray(grid.volume, float)
+        return {"gravity_theta": th[it], "gravity_volume": vol[iv],
+                "gravity_s": np.asarray(grid.s, float)[i_s],
+                "rupture_bond": np.asarray(self.rupture_bonds, float),
+                "rupture_gravity_axis": np.array([-1.0, 1.0]),
+                "rupture_ratio": np.asarray(grid.ratio, float)[ir],
+                "rupture_theta": th[jt], "rupture_volume": vol[kv]}
+
     def rupture_indices(self, grid):
         """Indices (ratio, theta, volume) of the rupture sub-grid (nodes of the table)."""
         def nearest(axis, wanted):
@@ -367,10 +380,10 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
 
     from capbridge.status import cf_flag_attributes
 
-    it, iv, i_s = plan.response_indices(grid)
+    it, iv, _ = plan.response_indices(grid)
+    ax = plan.axes(grid)
     ratio = np.asarray(grid.ratio, float)
-    th, vol, s = (np.asarray(grid.theta)[it], np.asarray(grid.volume)[iv],
-                  np.asarray(grid.s)[i_s])
+    th, vol, s = ax["gravity_theta"], ax["gravity_volume"], ax["gravity_s"]
     d_r = rupture_gap[:, it][:, :, iv]
     R, T, V, S = np.meshgrid(ratio, th, vol, s, indexing="ij")
     gap = d_r[..., None] * (1.0 - S**2)
@@ -397,9 +410,8 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
         "long_name": "status of the gravity-response solves at b.n = 0, +-h/2, +-h "
                      "(above_tolerance: response_error > response_rtol)"})
     # rupture with gravity
-    ir, jt, kv = plan.rupture_indices(grid)
-    rr, rt, rv = ratio[ir], np.asarray(grid.theta)[jt], np.asarray(grid.volume)[kv]
-    bonds, axes = np.asarray(plan.rupture_bonds, float), np.array([-1.0, 1.0])
+    rr, rt, rv = ax["rupture_ratio"], ax["rupture_theta"], ax["rupture_volume"]
+    bonds, axes = ax["rupture_bond"], ax["rupture_gravity_axis"]
     B, G, RR, RT, RV = np.meshgrid(bonds, axes, rr, rt, rv, indexing="ij")
     # ratio 1: both directions are equal by symmetry, the +1 one is not solved
     need = ~((RR == 1.0) & (G == 1.0))

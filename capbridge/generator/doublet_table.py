@@ -180,8 +180,7 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
     for name in OUTPUTS:
         data[name][status != Status.CONVERGED] = np.nan
     dims4 = ("ratio", "theta", "volume", "s")
-    if isinstance(gravity, str) and gravity == "auto":
-        gravity = GravityPlan() if grid == DoubletGrid.shipped(ratios=grid.ratio) else None
+    gravity = gravity_plan(grid, gravity)
     gds = None
     if gravity is not None:
         def phase(name, fn, inputs, size, phase_settings):
@@ -223,6 +222,26 @@ def build_doublet_table(grid: DoubletGrid, *, checkpoint_dir=None, n_jobs=None,
 
 def _this_command():
     return " ".join(shlex.quote(a) for a in ["capbridge"] + sys.argv[1:])
+
+
+def gravity_plan(grid, gravity="auto"):
+    """The gravity phases of a table of ``grid``: ``gravity`` itself, or for "auto" the
+    default :class:`GravityPlan` on the shipped grid (any ratios) and None elsewhere (a
+    quick test grid: the rupture phase with gravity costs ~5 s a point)."""
+    if isinstance(gravity, str) and gravity == "auto":
+        return GravityPlan() if grid == DoubletGrid.shipped(ratios=grid.ratio) else None
+    return gravity
+
+
+def table_axes(grid, gravity="auto"):
+    """Every dimension coordinate the table of ``grid`` will have (name -> values),
+    the gravity sub-grids included: what an existing file is compared with before the
+    sweep starts (:func:`~capbridge.generator.netcdf_io.check_table_target`)."""
+    axes = grid.as_dict()
+    plan = gravity_plan(grid, gravity)
+    if plan is not None:
+        axes |= {k: list(map(float, v)) for k, v in plan.axes(grid).items()}
+    return axes
 
 
 def save_doublet_table(ds: xr.Dataset, path, command=None, overwrite=False):
