@@ -351,9 +351,13 @@ def _info_doublet_gravity(ds):
               f"({int((st == Status.ABOVE_TOLERANCE).sum())} above_tolerance: own error "
               "estimate response_error above gravity_response_rtol)")
     if "gravity_holdout_bonds" in ds.attrs:
+        from capbridge.surrogate.doublet import _validated_axial_bond
+
         a = ds.attrs
         print("    held-out exact solutions with gravity along the axis (error relative to "
-              "the attraction; effect: of the gravity part alone):")
+              "the attraction; effect: of the gravity part alone); validated up to "
+              f"|Bo g_hat.n| = {_validated_axial_bond(a):g}, above it lookups are "
+              "approximate:")
         for k, b in enumerate(np.atleast_1d(a["gravity_holdout_bonds"])):
             print(f"      Bo = {b:<5g} max {np.atleast_1d(a['gravity_holdout_max_error'])[k]:.3g}"
                   f", effect max {np.atleast_1d(a['gravity_holdout_max_effect_error'])[k]:.3g}"

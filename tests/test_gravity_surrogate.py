@@ -383,9 +383,12 @@ def test_doublet_rupture_with_gravity(dsur):
     inside = dsur.predict_vectors(0.5 * d0, vol, th, bond=1.0, gravity=(0, 0, -1))
     assert near["status"] == Status.APPROXIMATE and np.all(np.isfinite(near["F1"]))
     assert inside["status"] == Status.CONVERGED
-    # a ratio outside the rupture sub-grid (1, 2): its nearest edge, approximate
-    far = dsur.predict_vectors(0.5 * d0, vol, th, ratio=3.0, bond=1.0, gravity=(-1, 0, 0))
-    assert far["status"] == Status.APPROXIMATE
+    # a ratio outside the rupture sub-grid (1, 2): its nearest edge, approximate next to
+    # rupture (where the rupture distance decides), converged well inside
+    d3 = float(dsur.predict(0.0, vol, th, 3.0)["rupture_gap"])
+    for frac, want in ((0.95, Status.APPROXIMATE), (0.5, Status.CONVERGED)):
+        r = dsur.predict_vectors(frac * d3, vol, th, ratio=3.0, bond=1.0, gravity=(-1, 0, 0))
+        assert r["status"] == want
 
 
 def test_doublet_failed_response_node_gives_no_number():
@@ -429,6 +432,25 @@ def test_doublet_unequal_transverse_gravity_is_approximate_when_its_share_matter
     equal = dsur.predict_vectors(0.3 * float(dsur.predict(0.0, DV, DTHETA)["rupture_gap"]),
                                  DV, DTHETA, bond=2.0, gravity=(0, 0, -1))
     assert float(equal["gravity_error"]) < want
+
+
+def test_doublet_axial_bond_above_the_validated_range_is_approximate():
+    ds = synthetic_doublet_table()
+    ds.attrs.update(gravity_holdout_bonds=np.array([0.05, 0.5, 1.0, 2.14, 2.5]),
+                    gravity_holdout_max_effect_error_converged=np.array(
+                        [1e-5, 4e-4, 9e-4, 2e-3, 1e-4]),
+                    gravity_response_rtol=1e-3)
+    sur = DoubletSurrogate().fit(ds)
+    assert sur.gravity_bond_max_ == 1.0           # 2.14 fails: 2.5 does not count
+    d0 = float(sur.predict(0.0, DV, DTHETA)["rupture_gap"])
+    gap = d0 * (1 - 0.9**2)
+    st = [int(sur.predict_vectors(gap, DV, DTHETA, bond=bo, gravity=g)["status"])
+          for bo, g in ((1.0, (-1, 0, 0)), (1.5, (-1, 0, 0)), (1.5, (0, 0, -1)),
+                        (2.0, (-0.6, 0, -0.8)))]
+    # along the axis above 1: approximate; across, b_n = 0: not; oblique b_n = 1.2 > 1
+    assert st == [Status.CONVERGED, Status.APPROXIMATE, Status.CONVERGED,
+                  Status.APPROXIMATE]
+    assert DoubletSurrogate().fit(synthetic_doublet_table()).gravity_bond_max_ == BOND_MAX
 
 
 def test_doublet_bad_bond(dsur):

@@ -193,6 +193,7 @@ class DoubletSurrogate:
         self._fine = {}
         self._ratio_basis = None
         self.holdout_ = {k: v for k, v in ds.attrs.items() if k.startswith("holdout_")}
+        self.gravity_bond_max_ = _validated_axial_bond(ds.attrs)
         return self
 
     def _check_fitted(self):
@@ -429,7 +430,13 @@ class DoubletSurrogate:
               OUT_OF_RANGE, no number (the table has no bridge there);
             * b with a transverse component and gap within the last 10 % of the
               rupture distance: APPROXIMATE (rupture under transverse gravity is not
-              computed);
+              computed); in that last 10 % also a point outside the rupture sub-grid
+              (its nearest edge);
+            * |b_n| above ``gravity_bond_max_``, the largest Bo at which the table's
+              held-out exact solutions (``gravity_holdout_*``, gravity along the axis)
+              of lookups not flagged otherwise stay within ``gravity_response_rtol``
+              of the attraction: APPROXIMATE (their own estimate leaves out the
+              interpolation between the response's nodes);
             * the response not available at a corner (``gravity_status``): NOT_CONVERGED;
               a corner ABOVE_TOLERANCE (its step-halving error estimate, near rupture)
               or a point outside the response's sub-grid (its nearest edge):
@@ -474,9 +481,12 @@ class DoubletSurrogate:
             rg, rcode = self._rupture_gravity(R[on], t[on], V[on], np.abs(bn[on]),
                                               np.sign(bn[on]), rup0[on])
             rup[on] = rg
-            code = np.maximum(code, rcode)
             sto = st[on]
             gon = g[on]
+            near = gon > 0.9 * rg
+            # the rupture distance with gravity only decides RUPTURED: a rupture sub-grid
+            # without the point (clipped: code 1) matters next to rupture only
+            code = np.maximum(code, np.where(near | (rcode == 2), rcode, 0))
             has = np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED))
             beyond0 = sto == Status.RUPTURED
             sto = np.where(has & (code == 2), np.int8(Status.NOT_CONVERGED), sto)
@@ -485,10 +495,11 @@ class DoubletSurrogate:
                            np.int8(Status.RUPTURED), sto)
             transverse = np.linalg.norm(b[on] - bn[on][:, None] * np.array([1.0, 0, 0]),
                                         axis=-1) > 0
-            near = gon > 0.9 * rg
             rtol = float(self.table_.attrs.get("gravity_response_rtol", GRAVITY_RTOL))
+            unvalidated = np.abs(bn[on]) > self.gravity_bond_max_ * (1 + 1e-12)
             sto = np.where((sto == Status.CONVERGED)
-                           & ((code == 1) | (transverse & near) | (est > rtol)),
+                           & ((code == 1) | (transverse & near) | (est > rtol)
+                              | unvalidated),
                            np.int8(Status.APPROXIMATE), sto)
             st[on] = sto
         n = np.broadcast_to(np.array([1.0, 0.0, 0.0]), shape + (3,))
@@ -665,6 +676,23 @@ def _axis_name(dim):
                                                             "bond", "gravity_axis"):
             return dim[len(prefix):]
     return dim
+
+
+def _validated_axial_bond(attrs):
+    """Largest Bo of the table's held-out check with gravity (``gravity_holdout_*``) up to
+    which the lookups the table calls converged stay within ``gravity_response_rtol`` of
+    the attraction (at that Bo and every smaller one); BOND_MAX for a table without the
+    check (its lookups rely on their own estimate alone)."""
+    if "gravity_holdout_bonds" not in attrs:
+        return BOND_MAX
+    rtol = float(attrs.get("gravity_response_rtol", GRAVITY_RTOL))
+    best = 0.0
+    for b, e in zip(np.atleast_1d(attrs["gravity_holdout_bonds"]),
+                    np.atleast_1d(attrs["gravity_holdout_max_effect_error_converged"])):
+        if not e <= rtol:
+            break
+        best = float(b)
+    return best
 
 
 def _interp_on(da, points, fill_nan=True):
