@@ -378,6 +378,8 @@ class LiquidGravity:
                                            CURVATURE_AXIAL) > self.eps
             k = np.flatnonzero(use)
             self.n_corrected = int(k.size)
+            if self.doublet_response is None:
+                self.doublet_response = bool(model.table.surrogate.has_gravity())
             w, c, u = (self.response(model, geom, k) if self.doublet_response
                        else (SHARE_AXIAL, CURVATURE_AXIAL, SHARE_AXIAL))
             fi, fj = bridge_gravity_forces(geom["d"][k], geom["dist"][k],
@@ -435,6 +437,7 @@ class LiquidGravity:
         return {"mode": self.mode, "drho": self.drho,
                 "g": None if self.g is None else self.g.tolist(),
                 "applied": bool(self.applied), "clusters_on": bool(self.clusters_on),
+                "doublet_response": bool(self.doublet_response),
                 "eps": self.eps, "eps_source": self.eps_source,
                 "summary": dict(self.summary)}
 
@@ -445,6 +448,8 @@ class LiquidGravity:
         self.g = None if st["g"] is None else np.array(st["g"], float)
         self.applied = bool(st["applied"])
         self.clusters_on = bool(st.get("clusters_on", False))
+        # a state saved before this key: what the table says, at the first refresh
+        self.doublet_response = st.get("doublet_response")
         self.eps = st["eps"]
         self.eps_source = st["eps_source"]
         self.summary = dict(st["summary"])
