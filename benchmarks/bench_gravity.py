@@ -116,7 +116,7 @@ def doublet_holdout_lines():
          f"gravity at held-out points ({a['gravity_holdout_description']}). Errors "
          "relative to the attraction at Bo = 0.", "",
          "| Bo | median error | max error | max effect error | max effect error, "
-         "`converged` lookups | lookups (approximate) | exact solution failed |",
+         "`converged` lookups | lookups (approximate) | left out: no exact bridge or no number |",
          "|---:|---:|---:|---:|---:|---:|---:|"]
     for k, b in enumerate(col["bonds"]):
         L.append(f"| {b:g} | {col['median_error'][k]:.2e} | {col['max_error'][k]:.2e} | "

@@ -789,8 +789,9 @@ def gravity_holdout_errors(surrogate, n=12, seed=2, bonds=GRAVITY_HOLDOUT_BONDS,
         ``bonds``, per Bo: ``max_error``, ``median_error``, ``max_effect_error``,
         ``max_effect_error_converged`` (points whose lookup status is CONVERGED, i.e.
         whose own estimate ``gravity_error`` is below the tolerance), ``n`` (exact and
-        lookup both with a number), ``n_approximate``, ``n_exact_failed`` (the bridge
-        at that Bo ruptured or the solver failed); and ``estimate_ratio_max``, the
+        lookup both with a number), ``n_approximate``, ``n_exact_failed`` (lookups left
+        out: the exact bridge at that Bo ruptured or its solver failed, or the lookup had
+        no number, a cell next to rupture touching a node without a response); and ``estimate_ratio_max``, the
         largest actual effect error over the estimate among points with an estimate
         above 1e-6.
     """
