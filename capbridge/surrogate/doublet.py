@@ -538,27 +538,32 @@ class DoubletSurrogate:
         """
         ds = self.table_
         pts = {"ratio": ratio, "theta": theta, "volume": volume, "s": s}
-        out, code = {}, np.zeros(np.size(ratio), np.int8)
-        for key, name, default in (("share", "weight_share_axial", None),
-                                   ("curvature", "force_gravity_curvature_axial", None),
-                                   ("share_transverse", "weight_share_transverse", 0.5),
-                                   ("error", "response_error", 0.0)):
-            if name not in ds:
-                out[key] = np.full(code.shape, default)
-                continue
-            vals, c = _interp_on(ds[name], pts)
-            if default is None or key == "share_transverse":
-                code = np.maximum(code, c)
-            out[key] = vals if key != "error" else np.nan_to_num(vals, nan=0.0)
+        n = np.size(ratio)
+        fields = [("share", "weight_share_axial", None),
+                  ("curvature", "force_gravity_curvature_axial", None),
+                  ("share_transverse", "weight_share_transverse", 0.5),
+                  ("error", "response_error", 0.0)]
+        have = [f for f in fields if f[1] in ds]
+        layers = [ds[name] for _, name, _ in have]
+        masks = []
         if "gravity_status" in ds:
             st = ds["gravity_status"]
-            coords = {d: st[d] for d in st.dims if d in st.coords}
-            for flagged, value in (
-                    (st.values == Status.ABOVE_TOLERANCE, 1),
-                    (~np.isin(st.values, [int(x) for x in HAS_RESULT]), 2)):
-                hit, _ = _interp_on(xr.DataArray(flagged.astype(float), dims=st.dims,
-                                                 coords=coords), pts, fill_nan=False)
-                code = np.where(hit > 0, np.maximum(code, value), code)
+            masks = [(st == Status.ABOVE_TOLERANCE).astype(float),
+                     (~st.isin([int(x) for x in HAS_RESULT])).astype(float)]
+        # one interpolation for every layer: they share the sub-grid
+        dims = layers[0].dims
+        stacked = xr.DataArray(
+            np.stack([np.asarray(x.transpose(*dims).values, float) for x in layers + masks],
+                     axis=-1), dims=dims + ("layer",),
+            coords={d: ds[d].values for d in dims if d in ds.coords})
+        vals, code = _interp_on(stacked, pts, stack="layer")
+        out = {key: np.full(n, default, float) for key, _, default in fields}
+        for j, (key, _, _) in enumerate(have):
+            out[key] = np.nan_to_num(vals[:, j], nan=0.0) if key == "error" else vals[:, j]
+        if masks:
+            above, bad = vals[:, len(have)], vals[:, len(have) + 1]
+            code = np.where(above > 0, np.maximum(code, 1), code)
+            code = np.where(bad > 0, 2, code)
         out["code"] = code.astype(np.int8)
         return out
 
@@ -594,14 +599,18 @@ class DoubletSurrogate:
             sl = da.sel({dim["gravity_axis"]: sgn}) if "gravity_axis" in dim else da
             bonds = np.asarray(sl[dim["bond"]].values, float)
             pts = {"ratio": ratio[m], "theta": theta[m], "volume": volume[m]}
-            looked = [_interp_on(sl.isel({dim["bond"]: k}), pts) for k in range(bonds.size)]
-            vals = np.stack([a[0] for a in looked], -1)
-            cds = np.max(np.stack([a[1] for a in looked], -1), -1)
+            vals, cds = _interp_on(sl, pts, stack=dim["bond"])  # (n, bonds), one pass
             x = bond_axial[m]
             if bonds[0] > 0:
                 bonds = np.concatenate([[0.0], bonds])
                 vals = np.concatenate([np.ones((x.size, 1)), vals], -1)
-            r = rup0[m] * np.array([np.interp(x[i], bonds, vals[i]) for i in range(x.size)])
+            # linear in Bo between the bond nodes, constant beyond the last (np.interp's
+            # rule), point by point
+            k = np.clip(np.searchsorted(bonds, x, side="right") - 1, 0, bonds.size - 2)
+            t = np.clip((x - bonds[k]) / (bonds[k + 1] - bonds[k]), 0.0, 1.0)
+            rows = np.arange(x.size)
+            q = vals[rows, k] + t * (vals[rows, k + 1] - vals[rows, k])
+            r = rup0[m] * q
             above = x > bonds[-1] * (1 + 1e-12)
             out[m] = r
             code[m] = np.where(~np.isfinite(r), 2, np.where(above, 1, cds))
@@ -695,13 +704,15 @@ def _validated_axial_bond(attrs):
     return best
 
 
-def _interp_on(da, points, fill_nan=True):
+def _interp_on(da, points, fill_nan=True, stack=None):
     """Multilinear interpolation of ``da`` (dims among ratio, theta, volume, s; log V*
     along volume) at ``points`` (name -> array, one entry per dim).
 
     Coordinates outside the variable's axis are clipped to it (code 1); a NaN at a
     corner with a positive weight gives code 2 (value NaN); dims of length 1 are taken
-    constant (code 1 where the point is not on that node).  Returns (values, code).
+    constant (code 1 where the point is not on that node).  ``stack``: a dim of ``da``
+    that is not interpolated but carried along (values (n, its size), one pass for
+    all; code 2 where any of them meets a NaN).  Returns (values, code).
     """
     from scipy.interpolate import RegularGridInterpolator
 
@@ -709,6 +720,8 @@ def _interp_on(da, points, fill_nan=True):
     code = np.zeros(n, np.int8)
     axes, xs, sel = [], [], {}
     for d in da.dims:
+        if d == stack:
+            continue
         name = _axis_name(d)
         if name not in points:
             raise ValueError(f"{da.name}: unexpected dimension {d!r}")
@@ -725,15 +738,16 @@ def _interp_on(da, points, fill_nan=True):
             c, x = np.log(c), np.log(x)
         axes.append(c)
         xs.append(x)
-    vals = np.asarray(da.isel(sel).transpose(*[d for d in da.dims if d not in sel]).values,
+    grid_dims = [d for d in da.dims if d not in sel and d != stack]
+    vals = np.asarray(da.isel(sel).transpose(*grid_dims, *([stack] if stack else [])).values,
                       float)
     if not axes:
-        return np.full(n, float(vals)), code
+        return np.broadcast_to(vals, (n,) + vals.shape).copy(), code
     nan = ~np.isfinite(vals)
     out = RegularGridInterpolator(axes, np.where(nan, 0.0, vals))(np.stack(xs, -1))
     if fill_nan and nan.any():
         hit = RegularGridInterpolator(axes, nan.astype(float))(np.stack(xs, -1)) > 0
-        code = np.where(hit, 2, code).astype(np.int8)
+        code = np.where(hit.any(-1) if stack else hit, 2, code).astype(np.int8)
         out = np.where(hit, np.nan, out)
     return out, code
 
