@@ -441,7 +441,8 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
         ds.attrs.update(gds.attrs)            # merge keeps only the first one's attributes
     ds.attrs.update({
         "title": "capbridge coalesced-triplet capillary-force table (Surface Evolver, "
-                 "three equal spheres, no gravity)",
+                 "three equal spheres, " + ("no gravity)" if gravity is None else
+                                            "response to gravity on the liquid)"),
         "normalising_radius": "r, the radius of the three equal grains",
         "grid": json.dumps(grid.as_dict()),
         "evolver_settings": json.dumps(plan.settings()),
