@@ -79,7 +79,7 @@ from capbridge.status import Status
 from capbridge.surrogate.gravity import transverse_weight_share
 
 #: tolerance of a response point's own error estimate, relative to its attraction F0
-#: (the doublet table's held-out error is 5e-5 median, 3.5e-3 max)
+#: (the doublet table's held-out error is 5e-5 median, 3.4e-3 max on the tabulated ratios)
 RESPONSE_RTOL = 1e-3
 
 RESPONSE_OUTPUTS = ("weight_share_axial", "force_gravity_curvature_axial",
@@ -338,7 +338,8 @@ def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL):
     The points of one (ratio, theta, volume) line are solved from contact (smallest gap)
     towards rupture; after the first point whose solves fail, the points of larger gap
     of that line are not attempted and are NOT_CONVERGED too.  A failed natural
-    continuation costs 1.5-4.5 CPU s (a converged point ~0.1 s), and beyond it the
+    continuation costs 1.4-2.7 CPU s (a converged point 0.05-0.6 s; measured on
+    ratios 1 and 2, V* 0.05), and beyond it the
     bridge at Bo = h is closer to, or past, its rupture (the stable branch at fixed V*
     and Bo is the gap interval [0, d*_rupt(Bo)]).
     """

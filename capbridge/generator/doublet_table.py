@@ -9,10 +9,10 @@ which keeps the table rectangular, makes rupture exact, and removes the square-r
 singularity of the force at the fold (F* - F*_rupt ~ sqrt(d*_rupt - d*)), so that
 smooth interpolation in s is accurate right up to rupture.
 
-Gravity along the axis (:mod:`capbridge.generator.doublet_gravity`): two more phases,
-the first- and second-order response of the grain forces to b.n (``weight_share_axial``,
-``force_gravity_curvature_axial`` on a sub-grid) and the rupture distance with gravity
-(``rupture_gap_gravity`` on a smaller one).
+Gravity (:mod:`capbridge.generator.doublet_gravity`): two more phases, the response of
+the grain forces to gravity on a sub-grid (``weight_share_axial``,
+``force_gravity_curvature_axial``, ``weight_share_transverse``) and the rupture distance
+with gravity along the axis (``rupture_gap_gravity`` on a smaller one).
 
 Each phase (rupture distances, bridges, gravity response, rupture with gravity) is a
 resumable :func:`run_sweep`; a phase
