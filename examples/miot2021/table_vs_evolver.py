@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from capbridge.generator.triplet import triplet_geometry
-from capbridge.status import Status, status_name
+from capbridge.status import status_name
 from capbridge.surrogate.triplet import TripletSurrogate
 
 HERE = Path(__file__).resolve().parent
@@ -80,7 +80,7 @@ def no_gravity(ev, geom, sur):
     lines += ["", f"Over all {len(d)} points inside the table: median |diff| {d.median():.2%}, "
               f"max {d.max():.2%}. The direct points carry their own estimated force error "
               f"(median {ev[inside].force_err_rel.median():.2%})."]
-    _figure(ev, "F_top_table", "coalesced body: triplet table (lines) vs direct Evolver (dots)",
+    _figure(ev, "coalesced body: triplet table (lines) vs direct Evolver (dots)",
             "fig06_table_vs_evolver.png")
     return lines
 
@@ -136,12 +136,12 @@ def with_gravity(df, geom, sur):
     if len(d):
         lines += ["", f"Over all {len(d)} points with gravity inside the table: median |diff| "
                   f"{d.median():.2%}, max {d.max():.2%}."]
-    _figure(ev, "F_top_table", "with gravity: table + gravity response (lines) vs direct "
+    _figure(ev, "with gravity: table + gravity response (lines) vs direct "
             "Evolver (dots)", "fig11_table_vs_evolver_gravity.png")
     return lines
 
 
-def _figure(ev, column, title, name):
+def _figure(ev, title, name):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -151,7 +151,7 @@ def _figure(ev, column, title, name):
         c = f"C{k}"
         ax.plot(g.V_ul, g.F_top_star, "o", color=c, ms=4, label=f"Evolver, {t:g} deg")
         gi = g[g.table_status != "extrapolated"]
-        ax.plot(gi.V_ul, gi[column], "-", color=c, lw=1.2)
+        ax.plot(gi.V_ul, gi.F_top_table, "-", color=c, lw=1.2)
     ax.set_xlabel("liquid volume V [ul] (r = 4 mm)")
     ax.set_ylabel("vertical force on the top grain F* = F/(2 pi gamma r)")
     ax.set_title(title, fontsize=9)
