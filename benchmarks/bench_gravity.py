@@ -100,6 +100,8 @@ def doublet_holdout_lines():
     (``gravity_holdout_*`` attributes written by ``capbridge generate doublet``)."""
     import xarray as xr
 
+    from capbridge.status import Status
+
     with xr.open_dataset(DATA / "doublet_table.nc") as ds:
         a = dict(ds.attrs)
         st = ds["gravity_status"].values if "gravity_status" in ds else None
@@ -111,7 +113,7 @@ def doublet_holdout_lines():
     L = ["Doublet gravity response (`data/doublet_table.nc`, gravity along the axis: share "
          "w and curvature c on a sub-grid, Richardson-extrapolated differences at Bo = "
          f"{a['gravity_bond_step'] / 2:g} and {a['gravity_bond_step']:g}; "
-         f"{int((st == 7).sum())} of {st.size} nodes above their own tolerance "
+         f"{int((st == Status.ABOVE_TOLERANCE).sum())} of {st.size} nodes above their own tolerance "
          f"{a['gravity_response_rtol']:g}) against the exact axisymmetric solver with "
          f"gravity at held-out points ({a['gravity_holdout_description']}). Errors "
          "relative to the attraction at Bo = 0.", "",
