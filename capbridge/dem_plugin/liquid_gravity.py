@@ -236,6 +236,7 @@ class LiquidGravity:
         self.n_corrected = 0
         self.clusters_on = False            # clusters get the triplet table's response
         self.doublet_response = False       # w, c from the doublet table
+        self._profiles = None               # w, u, c of each pool slot along gravity_s
 
     # --------------------------------------------------------------- decision
     def _rule_bridges(self, model):
@@ -403,32 +404,72 @@ class LiquidGravity:
         held[upd] = new[upd]
         return held.copy(), np.flatnonzero(upd)
 
-    @staticmethod
-    def response(model, geom, k):
+    def response(self, model, geom, k):
         """w, c and u of bridges ``k`` at their current gaps from the doublet table's
         gravity response (``weight_share_axial``, ``force_gravity_curvature_axial``,
-        ``weight_share_transverse``, interpolated by the surrogate at (ratio, theta, V*,
-        s)).  Bridges of two different angles (the table has equal angles) and points
-        where the response has no number keep w = u = 1/2, c = 0."""
-        sur = model.table.surrogate
-        bi, bj = model.bi[k], model.bj[k]
-        ri, rj = model.radii[bi], model.radii[bj]
-        small, large = np.where(ri <= rj, bi, bj), np.where(ri <= rj, bj, bi)
-        t1, t2 = model.theta[small], model.theta[large]
+        ``weight_share_transverse``, as ``DoubletSurrogate.gravity_response`` at (ratio,
+        theta, V*, s)).  Bridges of two different angles (the table has equal angles)
+        and points where the response has no number keep w = u = 1/2, c = 0.
+
+        A bridge's ratio, angle and V* do not change while it lives: its w, u, c are
+        looked up once, on the nodes of the response's s axis (:meth:`_profiles_for`),
+        and each refresh interpolates them linearly in s, which is the surrogate's
+        multilinear interpolation with the other coordinates fixed."""
         w = np.full(k.size, SHARE_AXIAL)
         c = np.full(k.size, CURVATURE_AXIAL)
         u = np.full(k.size, SHARE_AXIAL)
-        same = np.flatnonzero(np.abs(t1 - t2) <= 1e-9)
-        if same.size:
-            kk = k[same]
-            s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
-            ratio = np.maximum(ri, rj)[same] / np.minimum(ri, rj)[same]
-            r = sur.gravity_response(ratio, t1[same], model.vstar[kk], s)
-            ok = (r["code"] < 2) & np.isfinite(r["share"]) & np.isfinite(r["curvature"]) \
-                & np.isfinite(r["share_transverse"])
-            w[same[ok]], c[same[ok]] = r["share"][ok], r["curvature"][ok]
-            u[same[ok]] = r["share_transverse"][ok]
+        bi, bj = model.bi[k], model.bj[k]
+        ri, rj = model.radii[bi], model.radii[bj]
+        small, large = np.where(ri <= rj, bi, bj), np.where(ri <= rj, bj, bi)
+        same = np.flatnonzero(np.abs(model.theta[small] - model.theta[large]) <= 1e-9)
+        if not same.size:
+            return w, c, u
+        kk = k[same]
+        prof, code, s_nodes = self._profiles_for(model, kk)
+        s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
+        j = np.clip(np.searchsorted(s_nodes, s, side="right") - 1, 0, s_nodes.size - 2)
+        t = np.clip((s - s_nodes[j]) / (s_nodes[j + 1] - s_nodes[j]), 0.0, 1.0)
+        rows = np.arange(kk.size)
+        val = prof[rows, j] + t[:, None] * (prof[rows, j + 1] - prof[rows, j])
+        ok = (np.maximum(code[rows, j], code[rows, j + 1]) < 2) & np.isfinite(val).all(-1)
+        w[same[ok]], u[same[ok]], c[same[ok]] = val[ok, 0], val[ok, 1], val[ok, 2]
         return w, c, u
+
+    def _profiles_for(self, model, kk):
+        """(w, u, c) on the response's s nodes for bridges ``kk`` (m, n_s, 3), the
+        surrogate's code at each node (m, n_s) and the s nodes.  Kept by the bridge
+        model's pool slot, with the bridge's key and V* it was made for: derived state,
+        remade after a load or when a slot changes hands."""
+        sur = model.table.surrogate
+        if self._profiles is None:
+            s_nodes = np.asarray(sur.table_["gravity_s"].values, float)
+            self._profiles = {"s": s_nodes, "key": np.full(0, -1, np.int64),
+                              "vstar": np.zeros(0), "val": np.zeros((0, s_nodes.size, 3)),
+                              "code": np.zeros((0, s_nodes.size), np.int8)}
+        P = self._profiles
+        n_slots, ns = model.pool.shape[0], P["s"].size
+        if P["key"].size < n_slots:                       # the pool grew
+            grow = n_slots - P["key"].size
+            P["key"] = np.concatenate([P["key"], np.full(grow, -1, np.int64)])
+            P["vstar"] = np.concatenate([P["vstar"], np.zeros(grow)])
+            P["val"] = np.concatenate([P["val"], np.zeros((grow, ns, 3))])
+            P["code"] = np.concatenate([P["code"], np.full((grow, ns), 2, np.int8)])
+        slot = model.slot[kk]
+        stale = (P["key"][slot] != model.keys[kk]) | (P["vstar"][slot] != model.vstar[kk])
+        if stale.any():
+            new = kk[stale]
+            ri, rj = model.radii[model.bi[new]], model.radii[model.bj[new]]
+            small = np.where(ri <= rj, model.bi[new], model.bj[new])
+            m = new.size
+            r = sur.gravity_response(np.repeat(np.maximum(ri, rj) / np.minimum(ri, rj), ns),
+                                     np.repeat(model.theta[small], ns),
+                                     np.repeat(model.vstar[new], ns), np.tile(P["s"], m))
+            sl = slot[stale]
+            P["val"][sl] = np.stack([r["share"], r["share_transverse"], r["curvature"]],
+                                    -1).reshape(m, ns, 3)
+            P["code"][sl] = r["code"].reshape(m, ns)
+            P["key"][sl], P["vstar"][sl] = model.keys[new], model.vstar[new]
+        return P["val"][slot], P["code"][slot], P["s"]
 
     # ------------------------------------------------------------------ state
     def get_state(self):
