@@ -231,3 +231,22 @@ def test_the_axes_checked_before_the_sweep_are_those_of_the_table(table):
 
     assert _same_grid(table_axes(GRID, PLAN), table_grid(table))
     assert not _same_grid(table_axes(GRID, None), table_grid(table))
+
+
+def test_shipped_table_transverse_gravity_outside_its_measured_range_is_approximate():
+    """Surface Evolver (benchmarks/gravity_doublet_validity.json): equal grains at
+    0.8 d*_rupt (V* 0.1, theta 60) are off by 4.5e-3 F0 with gravity across at Bo 1 and
+    pinch off at 1.5; ratio 2 across is within 1e-3 up to 0.5 only; equal grains at
+    d* 0.1 (V* 0.05, theta 30) are within 1e-3 up to 2.5."""
+    from capbridge.cli import DEFAULT_TABLE
+    from capbridge.surrogate.doublet import DoubletSurrogate
+
+    _shipped().close()
+    sur = DoubletSurrogate().fit(DEFAULT_TABLE)
+    across = (0.0, 0.0, -1.0)
+    st = lambda *a, **k: int(sur.predict_vectors(*a, **k)["status"])  # noqa: E731
+    assert st(0.5547, 0.1, 60.0, bond=1.0, gravity=across) == Status.APPROXIMATE
+    assert st(0.5547, 0.1, 60.0, bond=0.05, gravity=across) == Status.CONVERGED
+    assert st(0.1, 0.05, 30.0, bond=2.5, gravity=across) == Status.CONVERGED
+    assert st(0.1, 0.05, 20.0, 2.0, bond=2.14, gravity=across) == Status.APPROXIMATE
+    assert st(0.1, 0.05, 20.0, 2.0, bond=0.5, gravity=across) == Status.CONVERGED
