@@ -67,6 +67,12 @@ def _solve_doublet_gravity(args, bond, direction):
     if args.V is None:
         raise CapbridgeInputError("--bond needs --V (volume control): suction control "
                                   "(--P) with gravity is not available")
+    from capbridge.generator.young_laplace_gravity import _validated
+    from capbridge.surrogate.gravity import liquid_weight
+
+    # the checks of the exact solver, for the Evolver branch too (one line, not a run)
+    check_range("gap d* (--d)", args.d, 0.0, np.inf)
+    _validated(None, args.V, args.theta, args.theta2, args.ratio, bond, -1.0)
     theta2 = args.theta if args.theta2 is None else args.theta2
     out = {"d": args.d, "V": args.V, "theta": args.theta, "theta2": theta2,
            "ratio": args.ratio, "bond": bond, "gravity": direction.tolist(),
@@ -83,9 +89,14 @@ def _solve_doublet_gravity(args, bond, direction):
         st = Status(int(r["status"]))
         f1, f2 = r["force1"], r["force2"]
         out.update(method="exact (axisymmetric, gravity along the axis)",
-                   F1=[f1, 0.0, 0.0], F2=[-f2, 0.0, 0.0], F=r["force"], weight=r["weight"],
+                   F1=[f1, 0.0, 0.0], F2=[-f2, 0.0, 0.0], F=r["force"],
+                   weight=float(liquid_weight(args.V) * bond),
                    P_centre1=r["pressure_centre1"], beta1=r["beta1"], beta2=r["beta2"],
                    energy=r["energy"], status=status_name(st))
+        if st == Status.NOT_CONVERGED:
+            out["reason"] = ("no stable bridge reached at this Bo: beyond the rupture "
+                             "distance with gravity (see `capbridge lookup doublet "
+                             "--bond`, d_rupt), or the solver failed")
     else:
         from capbridge.generator.evolver import minimise_bridge
 
@@ -98,7 +109,7 @@ def _solve_doublet_gravity(args, bond, direction):
         st = res.status
         F = res.forces if res.converged else np.full((2, 3), np.nan)
         out.update(method=f"Surface Evolver (level {res.refinement})", F1=F[0], F2=F[1],
-                   force_error=res.force_error, weight=bond * args.V / (2 * np.pi),
+                   force_error=res.force_error, weight=float(liquid_weight(args.V) * bond),
                    cpu_time=res.cpu_time, status=status_name(st), reason=res.reason)
     out["units"] = ("dimensionless by R1 and gamma: F* = F/(2 pi gamma R1) (force vectors "
                     "on each grain; F1 + F2 = weight * gravity), P* = dp R1/gamma")
@@ -328,9 +339,9 @@ def _info_doublet_gravity(ds):
     gravity, their attributes), or one line saying there is none."""
     from capbridge.surrogate.doublet import BOND_MAX, GRAVITY_VARIABLES
 
-    names = [n for n in GRAVITY_VARIABLES + ("gravity_status", "rupture_gap_gravity")
-             if n in ds]
-    if not names:
+    names = [n for n in GRAVITY_VARIABLES + ("weight_share_transverse", "gravity_status",
+                                             "rupture_gap_gravity") if n in ds]
+    if not all(n in ds for n in GRAVITY_VARIABLES):
         print("  gravity: none (the lookups answer Bo = 0 only; `capbridge solve doublet "
               "--bond` solves with gravity)")
         return
@@ -848,9 +859,10 @@ def build_parser():
     ld.add_argument("--overwrite", action="store_true", help="replace an existing --output")
     ld.add_argument("--bond", type=float, default=None, metavar="BO",
                     help="gravity on the liquid: Bond number Bo = drho g R1^2/gamma in "
-                         "[0, 2.5] (the table needs its gravity response); adds the force "
-                         "vectors F1x..F2z on grain 1 and 2 (F stays the attraction "
-                         "without gravity, d_rupt is with gravity)")
+                         "[0, 2.5] (the table needs its gravity response); the columns are "
+                         "then the force vectors F1x..F2z on grain 1 and 2, F (the attraction "
+                         "without gravity), d_rupt (with gravity) and status: P, beta1, "
+                         "beta2, which gravity changes, are not given")
     ld.add_argument("--gravity", default=None, metavar="X,Y,Z",
                     help="direction along which gravity pulls (default 0,0,-1), frame: "
                          "grain 1 at the origin, grain 2 on +x")

@@ -238,3 +238,26 @@ def test_help_documents_the_gravity_options(capsys):
         text = " ".join(capsys.readouterr().out.split())
         assert "--bond BO" in text and "--gravity X,Y,Z" in text
         assert "direction along which gravity pulls" in text
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--theta", "95"], "theta=95.0 deg is outside"),
+    (["--theta", "30", "--ratio", "0.5"], "ratio=0.5 is outside"),
+    (["--theta", "30", "--d", "nan"], "gap d* (--d)=nan"),
+])
+def test_solve_doublet_bond_off_axis_checks_inputs_before_evolver(args, words, capsys,
+                                                                  monkeypatch):
+    import capbridge.generator.evolver as ev
+
+    def never(*a, **k):
+        raise AssertionError("Surface Evolver must not run on bad input")
+
+    monkeypatch.setattr(ev, "minimise_bridge", never)
+    base = {"--d": "0.1", "--V": "0.05"}
+    for k in ("--d",):
+        if k in args:
+            base.pop(k)
+    argv = ["solve", "doublet", "--bond", "1"] + [x for kv in base.items() for x in kv] + args
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
