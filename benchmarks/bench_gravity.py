@@ -177,7 +177,8 @@ def main(argv=None):
           + ", ".join(f"Bo {b:g}: {e:.2%} (effect {f:.2%})" for b, e, f in
                       zip(h["bonds"], h["max_error_by_bond"], h["max_effect_error_by_bond"]))
           + f". Validated up to Bo = {h['bond_max_validated']:g} "
-          f"({h['n_cases_used']} of {h['n_cases']} cases answered); above it lookups with "
+          f"(cases answered with gravity: {min(h['n_cases_by_bond'][1:])}-"
+          f"{max(h['n_cases_by_bond'][1:])} of {h['n_cases']}, by Bo); above it lookups with "
           "gravity carry status `approximate`.", ""]
     L += doublet_holdout_lines()
     text = "\n".join(L)

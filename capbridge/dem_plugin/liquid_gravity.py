@@ -81,7 +81,7 @@ GRAVITY_MODES = ("auto", "on", "off")
 #: 1/2 for equal grains and angles only).  With it: :meth:`LiquidGravity.response`.
 SHARE_AXIAL = 0.5
 #: d2F*/db_n^2 of the attraction when the doublet table has no
-#: ``force_gravity_curvature_axial`` (second order; 0 until the table has it).
+#: ``force_gravity_curvature_axial`` (second order; 0 when the table has none).
 CURVATURE_AXIAL = 0.0
 
 

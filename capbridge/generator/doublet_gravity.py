@@ -337,9 +337,8 @@ def gravity_chunk(gap, volume, theta, ratio, bond_step=0.5, rtol=RESPONSE_RTOL):
 
     The points of one (ratio, theta, volume) line are solved from contact (smallest gap)
     towards rupture; after the first point whose solves fail, the points of larger gap
-    of that line are not attempted and are NOT_CONVERGED too.  A failed natural
-    continuation costs 1.4-2.7 CPU s (a converged point 0.05-0.6 s; measured on
-    ratios 1 and 2, V* 0.05), and beyond it the
+    of that line are not attempted and are NOT_CONVERGED too: a failed natural
+    continuation costs several converged points, and beyond it the
     bridge at Bo = h is closer to, or past, its rupture (the stable branch at fixed V*
     and Bo is the gap interval [0, d*_rupt(Bo)]).
     """
