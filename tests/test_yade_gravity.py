@@ -488,3 +488,42 @@ def test_doublet_response_from_a_table_that_has_it():
         ["weight_share_axial", "force_gravity_curvature_axial"]))
     assert not lg0.doublet_response
     assert np.abs(f_half - f).max() > 1e-3 * np.linalg.norm(weight)
+
+
+def test_cluster_above_the_bond_range_keeps_its_weight_shared_equally():
+    """A cluster at Bo > BOND_MAX (g x 40 on 1 mm grains): no response there, so the
+    liquid's weight drho V g is shared equally by the three grains, counted as a
+    fallback (it was dropped)."""
+    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
+    from capbridge.dem_plugin.coalescence_detect import find_coalescence
+    from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
+    from capbridge.generator.triplet import find_coalescence as exact_coalescence
+    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.surrogate.doublet import BOND_MAX
+
+    sur = _synthetic_triplet_surrogate()
+    R, gamma, drho = 1e-3, 0.073, 997.0
+    lo, hi = sur.gaps_[0], sur.gaps_[-1]
+    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
+    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
+    V = 1.6 * Vc * R**3
+    pos = triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+    g = 40 * np.array([2.0, -3.0, -9.0])
+    assert drho * np.linalg.norm(g) * R**2 / gamma > BOND_MAX
+
+    def run(gravity):
+        m = BridgeModel([R] * 3, 0.0, default_table_path(), gamma,
+                        LiquidRule(bridge_volume=V / 2))
+        m.initialise(pos, pairs=[(0, 2), (1, 2)])
+        geom = m.update(pos, form=False)
+        rep = find_coalescence(pos, m.bi, m.bj, *m.filling_angles(geom["gap"]), m.vol, m.n)
+        cl = LiquidClusters(gamma, surrogate=sur)
+        cl.gravity = gravity
+        return cl.step(m, pos, geom, rep)["forces"], cl
+
+    F0, _ = run(None)
+    F, cl = run((g, drho))
+    assert cl.gravity_fallback == 1
+    weight = drho * cl.volume[0] * g
+    np.testing.assert_allclose(F - F0, np.broadcast_to(weight / 3, F.shape), rtol=1e-9,
+                               atol=1e-12 * np.linalg.norm(weight))

@@ -58,6 +58,7 @@ import math
 
 import numpy as np
 
+from capbridge.surrogate.doublet import BOND_MAX
 from capbridge.surrogate.gravity import doublet_gravity_forces
 
 __all__ = ["DEFAULT_LIQUID_DENSITY", "FALLBACK_TABLE_ERROR", "GRAVITY_MODES", "ERROR_BAND",
@@ -72,8 +73,8 @@ FALLBACK_TABLE_ERROR = 1e-3
 #: The band s = sqrt(1 - d*/d*_rupt) >= ERROR_BAND of the table's held-out error: a
 #: bridge's relative correction is taken at its smallest attraction in that band.
 ERROR_BAND = 0.2
-#: Largest Bond number of issue 10's range (tables and Evolver checks: Bo 0 to 2.5).
-BOND_RANGE = 2.5
+#: Largest Bond number of the surrogates' range (tables and Evolver checks: Bo 0 to 2.5).
+BOND_RANGE = BOND_MAX
 #: Values of the engine's ``gravity_correction``.
 GRAVITY_MODES = ("auto", "on", "off")
 #: First-order share of the weight on the smaller grain, gravity along the axis, when
@@ -140,10 +141,12 @@ def triplet_table_has_gravity(path):
         return False
 
 
-def relative_correction(bond, vstar, fstar, curvature=0.0):
-    """Size of the gravity part of a grain's force relative to the attraction.
+def relative_correction(bond, vstar, fstar):
+    """Size of the first-order gravity part of a grain's force relative to the
+    attraction (the decision's measure; the second order is left out, see the module
+    docstring).
 
-    epsilon = Bo V* / (4 pi F*) + |c| Bo^2 / (2 F*)
+    epsilon = Bo V* / (4 pi F*)
 
     Parameters
     ----------
@@ -153,8 +156,6 @@ def relative_correction(bond, vstar, fstar, curvature=0.0):
         V* = V / r^3 [-].
     fstar : array_like
         Attraction F* = F / (2 pi gamma r) [-] (> 0; floored at 1e-12).
-    curvature : array_like
-        c = d2F*/db_n^2 [-].
 
     Returns
     -------
@@ -165,8 +166,7 @@ def relative_correction(bond, vstar, fstar, curvature=0.0):
     """
     bo = np.asarray(bond, float)
     f = np.maximum(np.asarray(fstar, float), 1e-12)
-    return bo * np.asarray(vstar, float) / (4.0 * np.pi * f) + \
-        np.abs(np.asarray(curvature, float)) * bo**2 / (2.0 * f)
+    return bo * np.asarray(vstar, float) / (4.0 * np.pi * f)
 
 
 def bridge_gravity_forces(d, dist, r_i, r_j, vstar, fscale, g_vec, drho, gamma,
@@ -274,8 +274,7 @@ class LiquidGravity:
         rel = [0.0]
         if model.n_bridges:
             bo = self.drho * gn * model.rsmall**2 / self.gamma
-            rel.append(float(relative_correction(bo, model.vstar, model.fstar_min,
-                                                 CURVATURE_AXIAL).max()))
+            rel.append(float(relative_correction(bo, model.vstar, model.fstar_min).max()))
         rs, ratio, v = self._rule_bridges(model)
         slices = np.unique(model.pair_slice[model.pair_slice >= 0])
         if rs.size and slices.size:
@@ -285,7 +284,7 @@ class LiquidGravity:
             c = tab.bridge_constants(S, ratio[K], v[K])
             fmin = tab.rows("force", c)[:, tab.s_axis.nodes >= ERROR_BAND].min(axis=1)
             bo = self.drho * gn * rs[K]**2 / self.gamma
-            rel.append(float(relative_correction(bo, v[K], fmin, CURVATURE_AXIAL).max()))
+            rel.append(float(relative_correction(bo, v[K], fmin).max()))
         return max(rel)
 
     def decide(self, eng, g, why="start-up"):
@@ -375,8 +374,7 @@ class LiquidGravity:
                 use[exclude] = False
             if self.mode == "auto":
                 bo = self.drho * float(np.linalg.norm(self.g)) * model.rsmall**2 / self.gamma
-                use &= relative_correction(bo, model.vstar, model.fstar_min,
-                                           CURVATURE_AXIAL) > self.eps
+                use &= relative_correction(bo, model.vstar, model.fstar_min) > self.eps
             k = np.flatnonzero(use)
             self.n_corrected = int(k.size)
             if self.doublet_response is None:

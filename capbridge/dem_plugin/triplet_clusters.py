@@ -79,6 +79,7 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import force_scale
+from capbridge.surrogate.gravity import liquid_weight
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -416,9 +417,11 @@ class LiquidClusters:
         liquid's weight drho V g up to the table's ``gravity_sum_residual``) at the
         lookup geometry (:func:`triangle_centres` of the gaps, those below zero taken
         as contact), rotated into the scene by the frame of the grains' centre lines
-        (grain 0 -> 1 and the plane of the three).  Zero for a cluster whose table has
-        no gravity response, whose Bo is above the surrogate's ``BOND_MAX`` or whose
-        response has no number there (counted in :attr:`gravity_fallback`).
+        (grain 0 -> 1 and the plane of the three).  A cluster whose Bo is above the
+        surrogate's ``BOND_MAX`` or whose response has no number there gets the
+        liquid's weight shared equally by its three grains (the first-order answer for
+        three equal grains in an equilateral triangle; counted in
+        :attr:`gravity_fallback`); zero for a table without a gravity response.
         """
         from capbridge.surrogate.doublet import BOND_MAX
 
@@ -462,7 +465,10 @@ class LiquidClusters:
                 part[use] = np.nan
         bad = ~np.all(np.isfinite(part), axis=(1, 2))
         bad[np.setdiff1d(np.arange(k), use)] = True
-        part[bad] = 0.0
+        # the weight is kept, shared equally: V*/(2 pi) b / 3 on each grain (F* of r)
+        b_loc = bond[bad, None] * g_loc[bad] / gn
+        part[bad] = (liquid_weight(self.volume[bad] / r[bad]**3)[:, None]
+                     * b_loc / 3.0)[:, None, :]
         self.gravity_fallback += int(bad.sum())
         part *= force_scale(r, self.gamma)[:, None, None]
         # lookup frame -> scene frame, grain by grain

@@ -869,9 +869,12 @@ def gravity_holdout_errors(surrogate, n=12, seed=2, bonds=GRAVITY_HOLDOUT_BONDS,
         whose own estimate ``gravity_error`` is below the tolerance), ``n`` (exact and
         lookup both with a number), ``n_approximate``, ``n_exact_failed`` (lookups left
         out: the exact bridge at that Bo ruptured or its solver failed, or the lookup had
-        no number, a cell next to rupture touching a node without a response); and ``estimate_ratio_max``, the
-        largest actual effect error over the estimate among points with an estimate
-        above 1e-6.
+        no number, a cell next to rupture touching a node without a response; a point
+        whose zero-gravity solve or lookup failed counts once, not once per direction);
+        and ``estimate_ratio_max``, the largest actual effect error over the estimate
+        among points with an estimate above 1e-6.  On a table that already carries this
+        check, lookups above its validated Bo are APPROXIMATE, so the CONVERGED set
+        differs from the one the table was checked with.
     """
     from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
 

@@ -87,8 +87,7 @@ import xarray as xr
 from scipy.interpolate import make_interp_spline
 
 from capbridge.status import HAS_RESULT, Status
-from capbridge.surrogate.doublet import (BOND_MAX, SI_DENSITY_RANGE, SI_GRAVITY_RANGE,
-                                         SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
+from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          _refine_axis, si_bond)
 from capbridge.surrogate.gravity import gravity_vector, liquid_weight
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
