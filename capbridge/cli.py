@@ -58,7 +58,9 @@ def parse_gravity(bond, gravity, bond_max, what):
         raise CapbridgeInputError(
             f"--gravity {gravity!r}: give the direction along which gravity pulls as three "
             "finite numbers X,Y,Z, not all zero (e.g. 0,0,-1)")
-    return bo, g / np.linalg.norm(g)
+    from capbridge.surrogate.gravity import gravity_vector
+
+    return bo, gravity_vector(1.0, g)
 
 
 def _solve_doublet_gravity(args, bond, direction):

@@ -15,7 +15,8 @@ import xarray as xr
 from scipy.interpolate import make_interp_spline
 
 from capbridge.status import HAS_RESULT, Status
-from capbridge.surrogate.gravity import doublet_gravity_forces, gravity_vector, liquid_weight
+from capbridge.surrogate.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
+                                         gravity_vector, liquid_weight)
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 VARIABLES = ("force", "pressure", "beta1", "beta2")
@@ -43,9 +44,6 @@ SI_SURFACE_TENSION_RANGE = (1e-3, 2.0)   # [N/m]: liquids to molten metals
 SI_DENSITY_RANGE = (0.0, 2.5e4)          # [kg/m^3]: density difference liquid - gas
 SI_GRAVITY_RANGE = (0.0, 1e3)            # [m/s^2]: |g| (centrifuges included)
 
-#: the largest Bond number Bo = drho g r^2 / gamma the surrogates answer (issue 10's
-#: range; the tables' gravity responses are checked against Surface Evolver up to it)
-BOND_MAX = 2.5
 
 
 def si_bond(radius, surface_tension, density_difference, gravity):
@@ -375,18 +373,8 @@ class DoubletSurrogate:
         return all(n in self.table_ for n in GRAVITY_VARIABLES)
 
     def _check_bond(self, bond):
-        bo = np.asarray(bond, float)
-        gravity_vector(bo, (0.0, 0.0, -1.0))            # finite, >= 0
-        if np.any(bo > BOND_MAX):
-            raise CapbridgeInputError(
-                f"Bond number Bo={float(bo.max())!r} is above the supported range [0, "
-                f"{BOND_MAX:g}]; use the exact solver (capbridge solve doublet --bond)")
-        if np.any(bo > 0) and not self.has_gravity():
-            raise CapbridgeInputError(
-                f"Bond number Bo={float(bo.max())!r}: this doublet table has no gravity "
-                f"response ({', '.join(GRAVITY_VARIABLES)}); Bo must be 0 with it, or use "
-                "the exact solver (capbridge solve doublet --bond)")
-        return bo
+        return check_bond(bond, self.has_gravity(), "doublet", ", ".join(GRAVITY_VARIABLES),
+                          "the exact solver (capbridge solve doublet --bond)")
 
     def predict_vectors(self, gap, volume, theta, ratio=1.0, bond=0.0, gravity=None):
         """Force vectors on both grains, with gravity on the liquid.

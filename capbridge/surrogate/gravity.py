@@ -44,8 +44,12 @@ import numpy as np
 
 from capbridge.validation import CapbridgeInputError
 
-__all__ = ["gravity_vector", "liquid_weight", "transverse_weight_share",
-           "doublet_gravity_forces", "triplet_gravity_forces"]
+__all__ = ["BOND_MAX", "gravity_vector", "liquid_weight", "check_bond",
+           "transverse_weight_share", "doublet_gravity_forces", "triplet_gravity_forces"]
+
+#: the largest Bond number Bo = drho g r^2 / gamma the surrogates answer (issue 10's
+#: range; the tables' gravity responses are checked against Surface Evolver up to it)
+BOND_MAX = 2.5
 
 
 def gravity_vector(bond, direction):
@@ -74,11 +78,31 @@ def gravity_vector(bond, direction):
     if d.shape[-1:] != (3,):
         raise CapbridgeInputError(f"gravity direction {direction!r}: give three "
                                   "components x,y,z")
-    norm = np.linalg.norm(d, axis=-1)
-    if np.any(~np.isfinite(norm)) or np.any(norm == 0):
+    big = np.max(np.abs(d), axis=-1, keepdims=True)
+    if not np.all(np.isfinite(d)) or np.any(big == 0):
         raise CapbridgeInputError(f"gravity direction {direction!r}: must be a finite, "
                                   "non-zero vector (e.g. 0,0,-1)")
-    return bond[..., None] * d / norm[..., None]
+    d = d / big                                    # no overflow in the norm (1e308 parts)
+    return bond[..., None] * d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def check_bond(bond, has_response, table, response, solver):
+    """Bo for a surrogate's lookup: finite, in [0, :data:`BOND_MAX`], and 0 with a table
+    (``table``: "doublet", "triplet") that has no gravity ``response`` (variable names);
+    ``solver`` names what answers beyond (the messages say it).  Returns Bo as an
+    array; raises CapbridgeInputError (one line) otherwise."""
+    bo = np.asarray(bond, float)
+    gravity_vector(bo, (0.0, 0.0, -1.0))            # finite, >= 0
+    if np.any(bo > BOND_MAX):
+        raise CapbridgeInputError(
+            f"Bond number Bo={float(bo.max())!r} is above the supported range [0, "
+            f"{BOND_MAX:g}] (the {table} table's gravity response is checked up to it); "
+            f"use {solver}")
+    if np.any(bo > 0) and not has_response:
+        raise CapbridgeInputError(
+            f"Bond number Bo={float(bo.max())!r}: this {table} table has no gravity "
+            f"response ({response}); Bo must be 0 with it, or use {solver}")
+    return bo
 
 
 def liquid_weight(volume):

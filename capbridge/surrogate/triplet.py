@@ -89,7 +89,7 @@ from scipy.interpolate import make_interp_spline
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          _refine_axis, si_bond)
-from capbridge.surrogate.gravity import gravity_vector, liquid_weight
+from capbridge.surrogate.gravity import check_bond, gravity_vector, liquid_weight
 from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
@@ -1129,18 +1129,8 @@ class TripletSurrogate:
         return res
 
     def _check_bond(self, bond):
-        bo = np.asarray(bond, float)
-        gravity_vector(bo, (0.0, 0.0, -1.0))            # Bo >= 0 and finite
-        if np.any(bo > BOND_MAX):
-            raise CapbridgeInputError(
-                f"Bond number Bo={float(bo.max())!r} is above the supported range [0, "
-                f"{BOND_MAX:g}] (the triplet table's gravity response is checked up to "
-                f"Bo = {BOND_MAX:g}); use Surface Evolver (capbridge solve triplet --bond)")
-        if np.any(bo > 0) and not self.has_gravity_:
-            raise CapbridgeInputError(
-                f"Bond number Bo={float(bo.max())!r}: this triplet table has no gravity "
-                "response (force_gravity_gradient); Bo must be 0 with it")
-        return bo
+        return check_bond(bond, self.has_gravity_, "triplet", "force_gravity_gradient",
+                          "Surface Evolver (capbridge solve triplet --bond)")
 
     def _add_gravity(self, res, centres, V, t, gaps, s, shape, bond, gravity):
         """Add the response to gravity to ``res`` (see :meth:`predict_vectors`)."""
