@@ -696,7 +696,8 @@ class CapbridgeEngine:
         # gravity on the liquid (bridges merged into a liquid cluster: the cluster's
         # gravity response instead, or none)
         in_clusters = (self.clusters.bridge_rows(self.model)
-                       if self.clusters is not None and self.clusters.n else None)
+                       if self.gravity.applied and self.clusters is not None
+                       and self.clusters.n else None)
         g_forces, g_changed = self.gravity.grain_forces(self, geom, in_clusters)
         if g_forces is not None:
             forces = forces + g_forces
