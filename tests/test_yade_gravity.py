@@ -318,6 +318,19 @@ def _synthetic_triplet_surrogate():
                                   coalescence_table=DEFAULT_COALESCENCE_TABLE)
 
 
+def _merged_triplet(sur, R):
+    """A merged triplet inside the synthetic table: liquid volume [m^3] (1.6 V_coal of
+    two bridges on grain 2) and centres [m] of three grains of radius R."""
+    from capbridge.dem_plugin.triplet_clusters import triangle_centres
+    from capbridge.generator.triplet import find_coalescence as exact_coalescence
+    from capbridge.generator.triplet import triplet_geometry
+
+    lo, hi = sur.gaps_[0], sur.gaps_[-1]
+    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
+    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
+    return 1.6 * Vc * R**3, triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+
+
 def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
     """A merged triplet (three 1 mm grains, two bridges on grain 2) with gravity: the
     grains get the zero-gravity forces plus the surrogate's gravity response
@@ -326,19 +339,13 @@ def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
     the liquid's weight within the synthetic table's residual."""
     from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
     from capbridge.dem_plugin.coalescence_detect import find_coalescence
-    from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
+    from capbridge.dem_plugin.triplet_clusters import LiquidClusters
     from capbridge.dimensionless import force_scale
-    from capbridge.generator.triplet import find_coalescence as exact_coalescence
-    from capbridge.generator.triplet import triplet_geometry
 
     sur = _synthetic_triplet_surrogate()
     assert sur.has_gravity_
     R, gamma, drho = 1e-3, 0.073, 997.0
-    lo, hi = sur.gaps_[0], sur.gaps_[-1]
-    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
-    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
-    V = 1.6 * Vc * R**3
-    base = triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+    V, base = _merged_triplet(sur, R)
     q, _ = np.linalg.qr(np.random.default_rng(5).normal(size=(3, 3)))
     g_scene = np.array([2.0, -3.0, -9.0])
 
@@ -496,18 +503,12 @@ def test_cluster_above_the_bond_range_keeps_its_weight_shared_equally():
     fallback (it was dropped)."""
     from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
     from capbridge.dem_plugin.coalescence_detect import find_coalescence
-    from capbridge.dem_plugin.triplet_clusters import LiquidClusters, triangle_centres
-    from capbridge.generator.triplet import find_coalescence as exact_coalescence
-    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.dem_plugin.triplet_clusters import LiquidClusters
     from capbridge.surrogate.doublet import BOND_MAX
 
     sur = _synthetic_triplet_surrogate()
     R, gamma, drho = 1e-3, 0.073, 997.0
-    lo, hi = sur.gaps_[0], sur.gaps_[-1]
-    gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
-    Vc = exact_coalescence(triplet_geometry(*gaps), 0.0, bridges=((0, 2), (1, 2))).V_coal
-    V = 1.6 * Vc * R**3
-    pos = triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
+    V, pos = _merged_triplet(sur, R)
     g = 40 * np.array([2.0, -3.0, -9.0])
     assert drho * np.linalg.norm(g) * R**2 / gamma > BOND_MAX
 
