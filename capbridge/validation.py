@@ -18,10 +18,7 @@ def check_range(name, value, low=-np.inf, high=np.inf, *, low_open=False, high_o
     the allowed interval, e.g. ``volume V*=-0.1 is outside [0, inf)``.  An infinite
     end is always printed open: it is never an allowed value.
     """
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise CapbridgeInputError(f"{name}={value!r} is not a number") from None
+    arr = as_numbers(name, value)
     bad = ~np.isfinite(arr)
     if low_open:
         bad |= arr <= low
@@ -41,6 +38,61 @@ def check_range(name, value, low=-np.inf, high=np.inf, *, low_open=False, high_o
             msg += f"; {hint}"
         raise CapbridgeInputError(msg)
     return arr
+
+
+# dtype kinds that convert to float without being numbers: booleans, complex numbers
+# (the imaginary part dropped), dates and time spans (a datetime64 converts to its day count), strings, bytes, raw records
+_NOT_NUMBERS = {"b": "a boolean", "c": "a complex number", "M": "a date", "m": "a time span", "U": "text",
+                "S": "bytes", "V": "raw data"}
+
+
+def as_numbers(name, value):
+    """``value`` as a float array, refusing what converts to float without being a
+    number (``np.asarray(np.datetime64("2020-01-01"), float)`` is 18262.0, ``True``
+    is 1.0, ``"0.1"`` is 0.1): one :class:`CapbridgeInputError` naming ``name``."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):
+        raise CapbridgeInputError(f"{name}={value!r} is not a number") from None
+    kind = raw.dtype.kind
+    if kind == "O":
+        for v in raw.ravel().tolist():
+            if not isinstance(v, numbers.Number) or isinstance(v, (bool, np.bool_, complex)):
+                raise CapbridgeInputError(f"{name}={v!r} is not a number")
+    elif kind in _NOT_NUMBERS:
+        first = raw.ravel()[0] if raw.size else raw
+        raise CapbridgeInputError(f"{name}={first!r} is {_NOT_NUMBERS[kind]}, not a number")
+    try:
+        return np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise CapbridgeInputError(f"{name}={value!r} is not a number") from None
+
+
+# Grains in contact overlap in a DEM (the normal spring); up to this depth, in units of
+# the normalising radius, a negative gap is a contact and lookups answer at gap 0.
+# DEM overlaps are kept to ~1e-3-1e-2 R; deeper ones are a broken scene, not a contact.
+CONTACT_OVERLAP_MAX = 0.05
+
+
+def check_gap(name, value, *, overlap_max=CONTACT_OVERLAP_MAX, units=""):
+    """Gaps between sphere surfaces as lookups take them: finite numbers, overlaps down
+    to ``overlap_max`` (same units as ``value``; scalar or broadcastable) read as
+    contact.  Returns the gaps with those overlaps set to 0.
+
+    Deeper overlaps raise one :class:`CapbridgeInputError` naming the value and the
+    allowed range.
+    """
+    arr = check_range(name, value, units=units)
+    limit = np.broadcast_to(np.asarray(overlap_max, dtype=float), arr.shape)
+    deep = arr < -limit * (1 + 1e-12)          # the limit itself, up to round-off, is allowed
+    if np.any(deep):
+        first = float(arr[deep].flat[0])
+        lim = float(limit[deep].flat[0])
+        raise CapbridgeInputError(
+            f"{name}={first!r}{units} is outside the allowed range [{-lim:g}, inf): "
+            f"grains overlapping by up to {lim:g}{units} (DEM contacts) count as touching, "
+            f"deeper overlaps are not supported")
+    return np.maximum(arr, 0.0)
 
 
 def check_int(name, value, low=None, high=None, hint=""):

@@ -17,7 +17,8 @@ from scipy.interpolate import make_interp_spline
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
                                          gravity_vector, liquid_weight)
-from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
+from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
+                                  check_gap, check_int, check_range)
 
 VARIABLES = ("force", "pressure", "beta1", "beta2")
 #: the table's response to gravity on the liquid (:mod:`capbridge.generator.doublet_gravity`):
@@ -227,7 +228,7 @@ class DoubletSurrogate:
 
     # ------------------------------------------------------------------------- predict
     def _validate(self, gap, volume, theta, ratio):
-        gap = check_range("gap d*", gap, 0.0, np.inf, hint="overlapping grains are not supported")
+        gap = check_gap("gap d*", gap)     # DEM contacts (small overlaps) are gap 0
         volume = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
         theta = check_range("theta", theta, 0.0, 180.0, high_open=True, units=" deg")
         ratio = check_range("ratio", ratio, 1.0, np.inf)
@@ -259,6 +260,9 @@ class DoubletSurrogate:
 
     def predict(self, gap, volume, theta, ratio=1.0, variables=VARIABLES):
         """Interpolated bridge at (d*, V*, theta [deg], ratio): dict of arrays.
+
+        A gap below zero down to -:data:`~capbridge.validation.CONTACT_OVERLAP_MAX` (grains
+        in contact overlap in a DEM) is answered at contact, d* = 0.
 
         Keys: the requested ``variables`` (force F*, pressure P*, beta1, beta2 [deg]),
         ``rupture_gap`` d*_rupt and ``status`` (converged, ruptured: force 0 and the
@@ -325,8 +329,8 @@ class DoubletSurrogate:
         r2 = check_range("predict_si radius2", radius2, *SI_RADIUS_RANGE, units=" m", hint=slip)
         check_range("predict_si surface_tension", surface_tension, *SI_SURFACE_TENSION_RANGE,
                     units=" N/m", hint=slip)
-        check_range("predict_si gap", gap, 0.0, np.inf, units=" m",
-                    hint="overlapping grains are not supported")
+        check_gap("predict_si gap", gap, units=" m",
+                  overlap_max=CONTACT_OVERLAP_MAX * np.minimum(r1, r2))
         check_range("predict_si volume", volume, 0.0, np.inf, low_open=True, units=" m^3")
         r = np.minimum(r1, r2)
         q = to_dimensionless(r, surface_tension, gap=gap, volume=volume)

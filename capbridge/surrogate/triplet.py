@@ -90,7 +90,8 @@ from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          _refine_axis, si_bond)
 from capbridge.surrogate.gravity import check_bond, gravity_vector, liquid_weight
-from capbridge.validation import CapbridgeInputError, check_choice, check_int, check_range
+from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
+                                  check_gap, check_int, check_range)
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
            "LOWER_ENERGY_STATES", "PAIR_NAMES", "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES",
@@ -768,10 +769,8 @@ class TripletSurrogate:
 
     # ------------------------------------------------------------------------- predict
     def _validate(self, d12, d13, d23, volume, theta):
-        gaps = [check_range(f"gap {n}", x, 0.0, np.inf,
-                            hint="gap between sphere surfaces / r; overlapping grains "
-                                 "are not supported")
-                for n, x in (("d12", d12), ("d13", d13), ("d23", d23))]
+        # DEM contacts (gap 0 or a small overlap) are answered at gap 0
+        gaps = [check_gap(f"gap {n}", x) for n, x in (("d12", d12), ("d13", d13), ("d23", d23))]
         volume = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
         theta = check_range("theta", theta, 0.0, 90.0, high_open=True, units=" deg")
         shape = np.broadcast_shapes(*(x.shape for x in gaps), volume.shape, theta.shape)
@@ -809,7 +808,9 @@ class TripletSurrogate:
         Parameters
         ----------
         d12, d13, d23 : array_like
-            Gaps between the sphere surfaces d* = d/r [-], >= 0, forming a triangle.
+            Gaps between the sphere surfaces d* = d/r [-], forming a triangle; contacts
+            of a DEM (overlaps down to -:data:`~capbridge.validation.CONTACT_OVERLAP_MAX`)
+            are looked up at 0.
         volume : array_like
             Total liquid volume V* = V/r^3 [-], > 0.
         theta : array_like
@@ -1021,7 +1022,10 @@ class TripletSurrogate:
         ----------
         centres : array_like (..., 3, 3)
             Centres of grains 1, 2, 3 (rows), in units of the normalising radius r
-            (radius 1 for equal spheres).
+            (radius 1 for equal spheres).  Grains in contact may overlap (a DEM
+            contact) by up to :data:`~capbridge.validation.CONTACT_OVERLAP_MAX` of the
+            pair's smaller radius: that pair is looked up at gap 0 (forces still along
+            the actual centre lines); deeper overlaps are an error.
         volume : array_like (...)
             Total liquid volume V* = V/r^3.
         theta : array_like (...)
@@ -1047,7 +1051,7 @@ class TripletSurrogate:
             vector from i to j; F* = F/(2 pi gamma r)); without gravity they sum to zero
             and have no torque about the grain centres.  Also the pair forces ``f12``,
             ``f13``, ``f23`` (F*, without gravity), ``gaps`` (..., 3) = (d12, d13, d23)
-            / r, and the other keys of :meth:`predict` (pressure in gamma/r, energy in
+            / r from the centres (negative for an overlap), and the other keys of :meth:`predict` (pressure in gamma/r, energy in
             gamma r^2, volumes in r^3; for unequal radii those of the lookup at R_h,
             status APPROXIMATE).
 
@@ -1076,29 +1080,51 @@ class TripletSurrogate:
         R = np.ones(C.shape[:-1]) if radii is None else \
             check_range("radii", radii, 0.0, np.inf, low_open=True)
         R = np.broadcast_to(R, C.shape[:-1])
-        shape = np.broadcast_shapes(C.shape[:-2], np.shape(volume), np.shape(theta))
+        V = check_range("volume V*", volume, 0.0, np.inf, low_open=True)
+        t = check_range("theta", theta, units=" deg")
+        shapes = [C.shape[:-2], V.shape, t.shape, np.shape(bond)]
+        if gravity is not None:
+            shapes.append(np.shape(gravity)[:-1])
+        try:
+            shape = np.broadcast_shapes(*shapes)
+        except ValueError:
+            raise CapbridgeInputError(
+                f"centres {C.shape}, volume {V.shape}, theta {t.shape}, bond "
+                f"{np.shape(bond)}" + ("" if gravity is None else
+                                       f", gravity {np.shape(gravity)}")
+                + " do not broadcast to one shape (centres (..., 3, 3), gravity (..., 3), "
+                  "the others (...))") from None
         C = np.broadcast_to(C, shape + (3, 3))
         R = np.broadcast_to(R, shape + (3,))
-        V = np.broadcast_to(check_range("volume V*", volume, 0.0, np.inf, low_open=True),
-                            shape)
-        t = np.broadcast_to(np.asarray(theta, float), shape)
+        V = np.broadcast_to(V, shape)
+        t = np.broadcast_to(t, shape)
         u, dist = {}, {}
         for p in PAIRS:
             d = C[..., p[1], :] - C[..., p[0], :]
             dist[p] = np.linalg.norm(d, axis=-1)
             u[p] = d / np.where(dist[p] > 0, dist[p], 1.0)[..., None]
         gaps = np.stack([dist[(i, j)] - R[..., i] - R[..., j] for i, j in PAIRS], -1)
-        if np.any(gaps < 0):
-            k = np.argwhere(gaps < 0)[0]
+        # contacts rebuilt from centres come back as -1e-16, DEM contacts overlap a little:
+        # both are gap 0 for the lookup; deeper overlaps are refused (per grain pair,
+        # relative to the pair's smaller radius)
+        limit = np.stack([CONTACT_OVERLAP_MAX * np.minimum(R[..., i], R[..., j])
+                          + 1e-12 * dist[(i, j)] for i, j in PAIRS], -1)   # + round-off
+        deep = gaps < -limit
+        if np.any(deep):
+            k = np.argwhere(deep)[0]
+            i, j = PAIRS[k[-1]]
             raise CapbridgeInputError(
-                f"grains {PAIRS[k[-1]][0] + 1} and {PAIRS[k[-1]][1] + 1} overlap (gap "
-                f"{gaps[tuple(k)]:.6g} < 0); overlapping grains are not supported")
+                f"grains {i + 1} and {j + 1} overlap by {-gaps[tuple(k)]:.6g} (gap "
+                f"{gaps[tuple(k)]:.6g}), more than {CONTACT_OVERLAP_MAX:g} of the smaller "
+                f"radius; overlaps up to that are DEM contacts (gap 0), deeper ones are not "
+                f"supported")
+        lookup_gaps = np.maximum(gaps, 0.0)
         equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
         looks = []                 # per pair: (lookup scale, force scale, lookup)
         cache = {}
         for k, (lk, fk) in enumerate(_unequal_scales(R, equal, unequal)):
             if id(lk) not in cache:
-                cache[id(lk)] = self.predict(*(gaps[..., m] / lk for m in range(3)),
+                cache[id(lk)] = self.predict(*(lookup_gaps[..., m] / lk for m in range(3)),
                                              V / lk**3, t)
             looks.append((lk, fk, cache[id(lk)]))
         s, _, r = looks[0]
@@ -1125,7 +1151,7 @@ class TripletSurrogate:
         res["forces"] = F
         res["gaps"] = gaps
         if np.any(np.asarray(bond, float) != 0) or gravity is not None:
-            self._add_gravity(res, C, V, t, gaps, s, shape, bond, gravity)
+            self._add_gravity(res, C, V, t, lookup_gaps, s, shape, bond, gravity)
         return res
 
     def _check_bond(self, bond):
