@@ -16,7 +16,7 @@ import numpy as np
 
 from capbridge.reproduce import STUDIES
 from capbridge.status import HAS_RESULT, Status, status_name
-from capbridge.validation import CapbridgeInputError, check_range, interval_text
+from capbridge.validation import CapbridgeInputError, check_gap, check_range, interval_text
 
 DATA = Path(__file__).resolve().parent.parent / "data"
 DEFAULT_TABLE = DATA / "doublet_table.nc"
@@ -172,6 +172,7 @@ def lookup_points(sur, d, V, theta, ratio, theta2=None):
     """
     from capbridge.generator.young_laplace import rupture_distance, solve_doublet
 
+    d = check_gap("gap d*", d)          # a DEM contact for the exact solver too, as the table
     n = d.size
     mixed = np.zeros(n, bool) if theta2 is None else ~(theta2 == theta)
     out = {k: np.full(n, np.nan) for k in LOOKUP_OUTPUTS}

@@ -67,7 +67,7 @@ def test_lookup_doublet_csv(tmp_path, capsys):
     ({"d": [0.1], "theta": [10]}, "missing column"),
     ({"d": [0.1], "V": [-1.0], "theta": [10]}, "volume"),
     ({"d": [0.1], "V": [0.01], "theta": [99]}, "theta"),
-    ({"d": [-0.01], "V": [0.01], "theta": [10]}, "gap"),
+    ({"d": [-0.1], "V": [0.01], "theta": [10]}, "gap"),     # -0.01 is a DEM contact
     ({"d": [0.1], "V": [50.0], "theta": [10]}, "outside the table"),
 ])
 def test_lookup_refuses_bad_rows(tmp_path, frame, word, capsys):

@@ -168,3 +168,21 @@ def test_plain_numbers_still_pass():
     from fractions import Fraction
     np.testing.assert_array_equal(check_range("x", [Decimal("0.5"), Fraction(1, 4)]),
                                   [0.5, 0.25])
+
+
+def test_cli_lookup_answers_dem_contacts_for_table_and_exact_rows(tmp_path):
+    """A DEM overlap in `lookup doublet` is a contact for the table rows and for the
+    mixed-angle rows that the exact solver answers."""
+    import pandas as pd
+
+    from capbridge.cli import main
+
+    src = tmp_path / "p.csv"
+    pd.DataFrame({"d": [-0.01, 0.0, -0.01, 0.0], "V": [0.05] * 4,
+                  "theta": [30.0] * 4, "theta2": [30.0, 30.0, 40.0, 40.0]}).to_csv(src, index=False)
+    out = tmp_path / "o.csv"
+    assert main(["lookup", "doublet", "--input", str(src), "--output", str(out)]) == 0
+    df = pd.read_csv(out)
+    assert list(df["method"]) == ["table", "table", "exact", "exact"]
+    assert df["F"][0] == df["F"][1] and df["F"][2] == df["F"][3]
+    assert set(df["status"]) == {"converged"}

@@ -275,7 +275,8 @@ def test_volume_outside_the_table(sur, table):
 
 
 @pytest.mark.parametrize("args, match", [
-    ((-0.01, 0.05, 0.05, 0.3, 30), r"gap d12=-0\.01.*\[0, inf\)"),
+    # a DEM overlap (down to -CONTACT_OVERLAP_MAX = -0.05) is a contact; deeper is refused
+    ((-0.1, 0.05, 0.05, 0.3, 30), r"gap d12=-0\.1.*\[-0.05, inf\)"),
     ((np.nan, 0.05, 0.05, 0.3, 30), r"gap d12=nan"),
     ((0.05, 0.05, 0.05, -0.3, 30), r"volume V\*=-0\.3.*\(0, inf\)"),
     ((0.05, 0.05, 0.05, np.nan, 30), r"volume V\*=nan"),
