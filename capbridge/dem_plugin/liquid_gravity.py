@@ -340,6 +340,9 @@ class LiquidGravity:
         whenever it changed."""
         g = newton_gravity(O)
         if self.g is None or not np.array_equal(g, self.g):
+            from capbridge.dem_plugin.engine_options import check_gravity
+
+            check_gravity(g)                # a NaN would end deep in the lookup
             eng._say("info" if self.g is None else "warning",
                      self.decide(eng, g, "start-up" if self.g is None else
                                  f"gravity changed at iter {int(O.iter)}"))
