@@ -72,6 +72,7 @@ ForceResetter ... NewtonIntegrator, two PyRunners of one label, impossible liqui
 amounts, a non-finite gravity, spheres added while running.  Erased spheres: their
 bridges rupture (liquid onto the surviving grain's film under the conserving rule) and
 the grain leaves with its film; the ledger counts that liquid (``removed_volume``).
+With every wet sphere erased the engine idles (no force, ledger exact).
 
 Coalescence: every ``coalescence_every`` steps, if some grain holds two bridges, the
 geometric criterion (:mod:`capbridge.dem_plugin.coalescence_detect`) is applied; merged
@@ -559,7 +560,9 @@ class CapbridgeEngine:
         return engine_options.material_angles(
             self.theta, [(b.id, b.material.label, b.material.id) for b in bodies], what)
 
-    def _setup(self, ids=None, table=None):
+    def _setup(self, ids=None, table=None, restoring=None):
+        """Read the grains and build the bridge model (at the first step; after a
+        load, ``restoring`` is the saved liquid rule)."""
         t0 = time.perf_counter()
         yade, wrapper = _yade()
         O = yade.Omega()
@@ -572,22 +575,27 @@ class CapbridgeEngine:
             bodies = [O.bodies[i] if 0 <= i < n_b else None for i in ids]
             if any(b is None or not isinstance(b.shape, sphere_cls) for b in bodies):
                 raise CapbridgeInputError("ids must be ids of existing spheres")
-        if not bodies:
+        if not bodies and restoring is None:  # (restored with none: all were erased)
             raise ValueError("no spheres in the scene")
         self.ids = np.array([b.id for b in bodies], np.intp)
         radii = np.array([b.shape.radius for b in bodies], float)
         theta = self._materials_theta(bodies)
-        # the keywords against the whole scene (as when the engine was made)
+        # the keywords against the whole scene (as when the engine was made); after a
+        # load the liquid in the saved ledger holds, whatever grains were erased before
         spheres, walls, _ = self._scene_bodies(O, wrapper, self.ids.tolist())
-        engine_options.check_scene(self._opts, self._doublet, spheres, walls, complete=True,
+        engine_options.check_scene(self._opts, self._doublet, spheres, walls,
+                                   complete=restoring is None,
                                    liquid_density=self.liquid_density)
         a = self.amount
         masses = [b.state.mass for b in bodies]
         W, v_s, v_p = engine_options.liquid_total(a, radii, masses, self.sample_volume,
                                                   self.liquid_density)
-        rule = LiquidRule(bridge_volume=a["bridge_volume"],
-                          bridge_volume_star=a["bridge_volume_star"], total_liquid=W,
-                          conserve=self.conserve_liquid, film_fraction=self.film_fraction)
+        if bodies:
+            rule = LiquidRule(bridge_volume=a["bridge_volume"],
+                              bridge_volume_star=a["bridge_volume_star"], total_liquid=W,
+                              conserve=self.conserve_liquid, film_fraction=self.film_fraction)
+        else:                                  # every wet grain erased: the saved rule
+            rule = LiquidRule(**restoring)
         self.pore_volume = v_p
         self.model = BridgeModel(radii, theta, self._doublet if table is None else table,
                                  self.gamma, rule,
@@ -797,7 +805,8 @@ class CapbridgeEngine:
         ids = np.asarray(eng["ids"], np.intp)
         same = self.model is not None and np.array_equal(ids, self.ids)
         # same grains as the live model: its table (slices) serves again
-        self._setup(ids=ids.tolist(), table=self.model.table if same else None)
+        self._setup(ids=ids.tolist(), table=self.model.table if same else None,
+                    restoring=st["bridges"]["liquid"])
         self.model.set_state(st["bridges"])
         self.clusters = None
         for name, (_, set_) in self._parts.items():
