@@ -31,7 +31,7 @@ from capbridge.dimensionless import force_scale
 from capbridge.status import Status
 
 __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
-           "distinct_values"]
+           "distinct_values", "balance_error"]
 
 
 def default_table_path():
@@ -41,6 +41,14 @@ def default_table_path():
     return _default_table()
 
 
+def balance_error(got, expected, scale):
+    """Relative error of a liquid ledger: |got - expected| relative to the liquid
+    expected, or, when (to round-off) none is expected any more (every bridge ruptured,
+    every wet grain erased), to ``scale``, the liquid the ledger handled [m^3]."""
+    denom = abs(expected) if abs(expected) > 1e-9 * abs(scale) else abs(scale)
+    return abs(got - expected) / max(denom, 1e-300)
+
+
 def distinct_values(x, rtol=1e-9):
     """Sorted distinct values of ``x`` (values within ``rtol`` of each other merged)."""
     x = np.sort(np.asarray(x, float).ravel())
@@ -48,6 +56,12 @@ def distinct_values(x, rtol=1e-9):
         return x
     keep = np.concatenate([[True], np.diff(x) > rtol * np.abs(x[1:])])
     return x[keep]
+
+
+def _stack(parts, shape):
+    """The slices ``parts`` stacked into ``shape`` (no slice: an empty grid, for a scene
+    whose wet grains were all erased)."""
+    return np.concatenate(parts).reshape(shape) if parts else np.empty(shape)
 
 
 # ------------------------------------------------------------------------------------
@@ -122,10 +136,10 @@ class SceneTable:
         mixed = self._build_mixed(ds)
         for name in self.variables:
             parts = ([self._build(ds[name].values)] if self.thetas.size else []) + mixed[name]
-            self.grids[name] = np.ascontiguousarray(np.concatenate(parts).reshape(shape))
+            self.grids[name] = np.ascontiguousarray(_stack(parts, shape))
         parts = (([self._build(ds["rupture_gap"].values)] if self.thetas.size else [])
                  + mixed["rupture_gap"])
-        self.rupture = np.ascontiguousarray(np.concatenate(parts).reshape(shape[:3]))
+        self.rupture = np.ascontiguousarray(_stack(parts, shape[:3]))
         self.flat = {name: g.ravel() for name, g in self.grids.items()}
 
     # -------------------------------------------------------------------------- build
@@ -434,7 +448,7 @@ class _Candidates:
 
         r = self.radii
         cell = getattr(self, "cell", None)     # periodic: nearest images through the faces
-        cut = 2.0 * float(r.max()) + self.skin
+        cut = 2.0 * float(r.max(initial=0.0)) + self.skin
         if cell is not None:
             i, j, dv = cell.near_pairs(pos, cut)
         else:
@@ -490,7 +504,8 @@ class BridgeModel:
                  initial_wet_gap=None, skin=None, with_beta=True, ratio_step=0.01):
         self.radii = np.ascontiguousarray(radii, float)
         self.n = self.radii.size
-        if self.n < 1 or np.any(~(self.radii > 0)):
+        # n = 0: a scene whose wet grains were all erased, restored (nothing to do)
+        if np.any(~(self.radii > 0)):
             raise ValueError("radii must be positive")
         self.theta = np.broadcast_to(np.asarray(theta, float), (self.n,)).copy()
         self.gamma = float(gamma)
@@ -499,7 +514,8 @@ class BridgeModel:
         self.liquid = liquid if isinstance(liquid, LiquidRule) else LiquidRule(**liquid)
         self.formation_gap = float(formation_gap)
         self.initial_wet_gap = self.formation_gap if initial_wet_gap is None else float(initial_wet_gap)
-        self.skin = float(skin) if skin is not None else 0.1 * float(self.radii.min())
+        r_min = float(self.radii.min()) if self.n else 0.0
+        self.skin = float(skin) if skin is not None else 0.1 * r_min
         self.skin = max(self.skin, self.formation_gap, self.initial_wet_gap, 1e-12)
         # grain angle classes and the pair angle of each combination
         self.theta_classes, self.grain_class = np.unique(self.theta, return_inverse=True)
@@ -552,6 +568,8 @@ class BridgeModel:
         return np.array([1.0, rad[-1] / rad[0]]), True
 
     def _check_fixed_volume(self):
+        if self.n == 0:
+            return
         lo, hi = self.table.vstar_range
         rmin, rmax = float(self.radii.min()), float(self.radii.max())
         if self.liquid.bridge_volume is not None:
@@ -915,7 +933,8 @@ class BridgeModel:
         xyz = np.arange(3)
         on_i = np.bincount((3 * self.bi[:, None] + xyz).ravel(), h, minlength=3 * self.n)
         on_j = np.bincount((3 * self.bj[:, None] + xyz).ravel(), h, minlength=3 * self.n)
-        return (on_i - on_j).reshape(self.n, 3)
+        # (float even with no bridge: bincount of nothing gives integers)
+        return (on_i - on_j).reshape(self.n, 3).astype(float, copy=False)
 
     def filling_angles(self, gap):
         """Half filling angles [deg] of each bridge on its grains bi and bj."""
@@ -1057,5 +1076,7 @@ class BridgeModel:
             got = active
         L["expected"] = expected
         L["accounted"] = got
-        L["balance_error"] = abs(got - expected) / max(abs(expected), 1e-300)
+        scale = (float(self.liquid.total_liquid) if self.liquid.kind == "conserved"
+                 else L["initial_volume"] + L["formed_volume"])
+        L["balance_error"] = balance_error(got, expected, scale)
         return L

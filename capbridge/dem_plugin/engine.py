@@ -65,11 +65,14 @@ when the first engine is made) and read back at the first step after ``O.load`` 
 from the saved parameters if no engine of its label exists).  YADE drops every
 permanent force on load; the engine puts its own back (the user's are the user's).
 
-Misuse is an error, not a silent zero: the PyRunner outside ForceResetter ...
-NewtonIntegrator, two PyRunners of one label, impossible liquid amounts, spheres added
-while running.  Erased spheres: their bridges rupture (liquid onto the surviving grain's
-film under the conserving rule) and the grain leaves with its film; the ledger counts
-that liquid (``removed_volume``).
+Misuse is an error, not a silent zero: every keyword is checked when the engine is made
+(:mod:`capbridge.dem_plugin.engine_options`: type, range, which go together, the doublet
+table read then, the grains already in the scene), then the PyRunner outside
+ForceResetter ... NewtonIntegrator, two PyRunners of one label, impossible liquid
+amounts, a non-finite gravity, spheres added while running.  Erased spheres: their
+bridges rupture (liquid onto the surviving grain's film under the conserving rule) and
+the grain leaves with its film; the ledger counts that liquid (``removed_volume``).
+With every wet sphere erased the engine idles (no force, ledger exact).
 
 Coalescence: every ``coalescence_every`` steps, if some grain holds two bridges, the
 geometric criterion (:mod:`capbridge.dem_plugin.coalescence_detect`) is applied; merged
@@ -86,7 +89,6 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
-import math
 import time
 import uuid
 from contextlib import chdir  # YADE reads its capillary files from the working directory
@@ -94,11 +96,11 @@ from pathlib import Path
 
 import numpy as np
 
-from capbridge.dem_plugin import scene_geometry, state_io
+from capbridge.dem_plugin import engine_options, scene_geometry, state_io
 from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem_plugin.coalescence_detect import find_coalescence
-from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY, GRAVITY_MODES,
-                                                 LiquidGravity)
+from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY, LiquidGravity,
+                                                 newton_gravity)
 from capbridge.validation import CapbridgeInputError
 
 __all__ = ["CapbridgeEngine", "suction_law2", "get_engine", "ENGINE_PARAMETERS",
@@ -109,10 +111,9 @@ log = logging.getLogger("capbridge.yade")
 #: Engines by label, for the PyRunner commands.
 _REGISTRY: dict = {}
 
-#: Largest liquid volume per grain volume a water content may give: void ratio 1
-#: (porosity 0.5), looser than any random packing of spheres (random loose packing:
-#: porosity ~0.44), so more liquid than this cannot be held by the pores of any packing.
-MAX_VOID_RATIO = 1.0
+#: Largest liquid volume per grain volume (void ratio 1): see
+#: :data:`capbridge.dem_plugin.engine_options.MAX_VOID_RATIO`
+MAX_VOID_RATIO = engine_options.MAX_VOID_RATIO
 
 #: prefix of the engine's entries in ``O.tags``
 _TAG = "capbridge"
@@ -317,7 +318,9 @@ def _rows_of_ids(O):
 class CapbridgeEngine:
     """Volume-controlled capillary bridges from capbridge's doublet table, in YADE.
 
-    See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters.
+    See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters and
+    :data:`~capbridge.dem_plugin.engine_options.OPTION_RULES` for what each allows (checked
+    here, when the engine is made).
     The engine reads the grains (radii, materials, masses) at its first step; create it
     before or after the bodies.  Erased wet spheres leave with their liquid (ledger);
     spheres added later are refused with an error (give ``ids`` or call :meth:`reset`).
@@ -351,72 +354,54 @@ class CapbridgeEngine:
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
                  triplet_split="table", gravity_correction="auto"):
-        totals = [k for k, v in (("liquid_volume", liquid_volume), ("water_content", water_content),
-                                 ("saturation", saturation)) if v is not None]
-        per_bridge = [k for k, v in (("bridge_volume", bridge_volume),
-                                     ("bridge_volume_star", bridge_volume_star)) if v is not None]
-        if len(totals) + len(per_bridge) != 1:
-            raise ValueError("give exactly one of bridge_volume, bridge_volume_star, "
-                             "liquid_volume, water_content, saturation "
-                             f"(got {totals + per_bridge or 'none'})")
-        if saturation is not None and sample_volume is None:
-            raise CapbridgeInputError("saturation needs sample_volume (the volume of the "
-                                      "sample, m^3)")
-        from capbridge.validation import check_choice, check_range
-        if water_content is not None:
-            check_range("water_content", water_content, 0.0, np.inf, low_open=True,
-                        hint="a fraction: liquid mass / grain mass, 0.01 for 1 %")
-        if saturation is not None:
-            check_range("saturation", saturation, 0.0, 1.0, low_open=True,
-                        hint="degree of saturation V_liquid / V_pores, 0.2 for 20 %")
-        if liquid_volume is not None:
-            check_range("liquid_volume", liquid_volume, 0.0, np.inf, low_open=True, units=" m^3")
-        if sample_volume is not None:
-            check_range("sample_volume", sample_volume, 0.0, np.inf, low_open=True, units=" m^3")
-        if per_bridge and conserve_liquid:
-            raise ValueError("conserve_liquid=True needs a total liquid (liquid_volume, "
-                             "water_content or saturation), not a bridge volume")
-        if int(refresh_every) < 1:
-            raise ValueError("refresh_every must be >= 1")
+        # every keyword checked here, in one place (engine_options): one line naming
+        # the keyword and what is allowed
+        opts = engine_options.check_options(
+            theta=theta, gamma=gamma, bridge_volume=bridge_volume,
+            bridge_volume_star=bridge_volume_star, liquid_volume=liquid_volume,
+            water_content=water_content, saturation=saturation, sample_volume=sample_volume,
+            liquid_density=liquid_density, conserve_liquid=conserve_liquid,
+            film_fraction=film_fraction, formation_gap=formation_gap,
+            initial_wet_gap=initial_wet_gap, initial_pairs=initial_pairs,
+            refresh_every=refresh_every, force_tolerance=force_tolerance,
+            coalescence=coalescence, coalescence_every=coalescence_every, table=table,
+            ids=ids, skin=skin, ratio_step=ratio_step, label=label,
+            triplet_forces=triplet_forces, triplet_table=triplet_table, walls=walls,
+            triplet_split=triplet_split, gravity_correction=gravity_correction)
         self.theta = theta
-        self.gamma = float(gamma)
-        self.amount = {"bridge_volume": bridge_volume, "bridge_volume_star": bridge_volume_star,
-                       "liquid_volume": liquid_volume, "water_content": water_content,
-                       "saturation": saturation}
-        self.sample_volume = sample_volume
-        if liquid_density is not None:
-            check_range("liquid_density", liquid_density, 0.0, np.inf, low_open=True,
-                        units=" kg/m^3", hint="density difference liquid - gas, 997 for "
-                                              "water in air at 20 C")
+        self.gamma = opts["gamma"]
+        self.amount = {k: opts[k] for k in engine_options.LIQUID_AMOUNTS}
+        self.sample_volume = opts["sample_volume"]
         # water by default: 1000 kg/m^3 for water_content (as before gravity was added),
         # 997 kg/m^3 (water - air at 20 C) for the liquid's weight
-        self.liquid_density = 1000.0 if liquid_density is None else float(liquid_density)
-        check_choice("gravity_correction", gravity_correction, GRAVITY_MODES)
+        rho = opts["liquid_density"]
+        self.liquid_density = 1000.0 if rho is None else rho
         self.gravity_correction = gravity_correction
         self.gravity = LiquidGravity(gravity_correction,
-                                     DEFAULT_LIQUID_DENSITY if liquid_density is None
-                                     else float(liquid_density), self.gamma)
-        self.conserve_liquid = conserve_liquid
-        self.film_fraction = float(film_fraction)
-        self.formation_gap = float(formation_gap)
-        self.initial_wet_gap = initial_wet_gap
-        self.initial_pairs = None if initial_pairs is None else [tuple(map(int, p)) for p in initial_pairs]
-        self.refresh_every = int(refresh_every)
-        self.force_tolerance = float(force_tolerance)
-        if not self.force_tolerance >= 0:
-            raise ValueError("force_tolerance must be >= 0")
-        self.coalescence = bool(coalescence)
-        self.coalescence_every = max(1, int(coalescence_every))
-        check_choice("triplet_split", triplet_split, ("table", "exact", "merge_volumes"))
+                                     DEFAULT_LIQUID_DENSITY if rho is None else rho, self.gamma)
+        self.conserve_liquid = opts["conserve_liquid"]
+        self.film_fraction = opts["film_fraction"]
+        self.formation_gap = opts["formation_gap"]
+        self.initial_wet_gap = opts["initial_wet_gap"]
+        self.initial_pairs = opts["initial_pairs"]
+        self.refresh_every = opts["refresh_every"]
+        self.force_tolerance = opts["force_tolerance"]
+        self.coalescence = opts["coalescence"]
+        self.coalescence_every = opts["coalescence_every"]
         self.triplet_split = triplet_split
-        self._init_triplets(triplet_forces, triplet_table)
+        self._init_triplets(opts["triplet_forces"], triplet_table)
         self.table = table if table is not None else default_table_path()
-        self.ids_requested = None if ids is None else [int(i) for i in ids]
-        self.skin = skin
-        self.ratio_step = float(ratio_step)
-        self.label = str(label)
+        self.ids_requested = opts["ids"]
+        self.skin = opts["skin"]
+        self.ratio_step = opts["ratio_step"]
+        self.label = label
         # walls and periodic cells: capbridge.dem_plugin.scene_geometry
-        self.walls_requested = walls if isinstance(walls, bool) else [int(i) for i in walls]
+        self.walls_requested = opts["walls"]
+        # the doublet table read and checked now (not at the first step), and the
+        # grains the scene already holds checked against the keywords
+        self._opts = opts
+        self._doublet = engine_options.load_doublet_table(table, opts)
+        self._check_scene_now(opts)
         self.walls, self._cell = None, None
         self.model = None
         self.coalescence_report = None
@@ -520,24 +505,64 @@ class CapbridgeEngine:
         except ImportError:
             pass
 
-    def _materials_theta(self, bodies):
-        th = self.theta
-        out = np.empty(len(bodies))
-        if isinstance(th, dict):
-            for k, b in enumerate(bodies):
-                m = b.material
-                for key in (m.label, m.id, m):
-                    if isinstance(key, (str, int)) and key in th:
-                        out[k] = float(th[key])
-                        break
-                else:
-                    raise ValueError(f"no contact angle for body {b.id}'s material "
-                                     f"(label {m.label!r}, id {m.id}); theta has {list(th)}")
-        else:
-            out[:] = float(th)
-        return out
+    def _scene_bodies(self, O, wrapper, ids=None):
+        """The wet spheres and wall partners the scene holds now, as
+        :func:`~capbridge.dem_plugin.engine_options.check_scene` takes them:
+        ``(spheres, walls, complete)``; ``complete`` when ``ids`` are given and all
+        present (ids not in the scene yet are skipped: they may be added later)."""
+        sph = wrapper.Sphere
+        n_b = len(O.bodies)
 
-    def _setup(self, ids=None, table=None):
+        def body(i):
+            return O.bodies[i] if 0 <= i < n_b else None
+
+        if ids is None:
+            bodies = [b for b in O.bodies if b is not None and isinstance(b.shape, sph)]
+            complete = False
+        else:
+            bodies = []
+            for i in ids:
+                b = body(i)
+                if b is None:
+                    continue
+                if not isinstance(b.shape, sph):
+                    raise CapbridgeInputError(f"ids: body {i} is a {type(b.shape).__name__}, "
+                                              "not a sphere")
+                bodies.append(b)
+            complete = len(bodies) == len(ids)
+        spheres = [(b.id, b.shape.radius, b.state.mass, b.material.label, b.material.id)
+                   for b in bodies]
+        w = self.walls_requested
+        if w is True:
+            wall_b = [b for b in O.bodies if b is not None
+                      and type(b.shape).__name__ in engine_options.WALL_SHAPES]
+        else:
+            wall_b = [b for b in map(body, w or []) if b is not None]
+        walls = [(b.id, type(b.shape).__name__, b.material.label, b.material.id)
+                 for b in wall_b]
+        return spheres, walls, complete
+
+    def _check_scene_now(self, opts):
+        """At construction: the keywords against the spheres and walls the scene holds
+        already (nothing without YADE or without bodies; all again at the first step)."""
+        try:
+            yade, wrapper = _yade()
+        except ImportError:
+            return
+        spheres, walls, complete = self._scene_bodies(yade.Omega(), wrapper,
+                                                      self.ids_requested)
+        engine_options.check_scene(opts, self._doublet, spheres, walls, complete=complete,
+                                   liquid_density=self.liquid_density)
+
+    def _materials_theta(self, bodies, what="body"):
+        """Contact angle of every body from its material
+        (:func:`~capbridge.dem_plugin.engine_options.material_angles`)."""
+        return engine_options.material_angles(
+            self.theta, [(b.id, b.material.label, b.material.id) for b in bodies], what)
+
+    def _setup(self, ids=None, table=None, restoring=None):
+        """Read the grains and build the bridge model (at the first step; after a
+        load, ``restoring`` is the saved liquid rule)."""
         t0 = time.perf_counter()
         yade, wrapper = _yade()
         O = yade.Omega()
@@ -550,33 +575,29 @@ class CapbridgeEngine:
             bodies = [O.bodies[i] if 0 <= i < n_b else None for i in ids]
             if any(b is None or not isinstance(b.shape, sphere_cls) for b in bodies):
                 raise CapbridgeInputError("ids must be ids of existing spheres")
-        if not bodies:
+        if not bodies and restoring is None:  # (restored with none: all were erased)
             raise ValueError("no spheres in the scene")
         self.ids = np.array([b.id for b in bodies], np.intp)
         radii = np.array([b.shape.radius for b in bodies], float)
         theta = self._materials_theta(bodies)
-        W = None
+        # the keywords against the whole scene (as when the engine was made); after a
+        # load the liquid in the saved ledger holds, whatever grains were erased before
+        spheres, walls, _ = self._scene_bodies(O, wrapper, self.ids.tolist())
+        engine_options.check_scene(self._opts, self._doublet, spheres, walls,
+                                   complete=restoring is None,
+                                   liquid_density=self.liquid_density)
         a = self.amount
-        if a["liquid_volume"] is not None:
-            W = float(a["liquid_volume"])
-        elif a["water_content"] is not None:
-            mass = float(sum(b.state.mass for b in bodies))
-            W = float(a["water_content"]) * mass / self.liquid_density
-        v_s = float((4.0 / 3.0 * math.pi * radii**3).sum())
-        v_p = None
-        if self.sample_volume is not None:
-            v_p = float(self.sample_volume) - v_s
-            if not v_p > 0:
-                raise CapbridgeInputError(f"sample_volume {self.sample_volume:g} m^3 is not "
-                                          f"larger than the grains' volume {v_s:g} m^3")
-        if a["saturation"] is not None:
-            W = float(a["saturation"]) * v_p
-        self._check_liquid_amount(W, v_s, v_p, bodies)
-        rule = LiquidRule(bridge_volume=a["bridge_volume"],
-                          bridge_volume_star=a["bridge_volume_star"], total_liquid=W,
-                          conserve=self.conserve_liquid, film_fraction=self.film_fraction)
+        masses = [b.state.mass for b in bodies]
+        W, v_s, v_p = engine_options.liquid_total(a, radii, masses, self.sample_volume,
+                                                  self.liquid_density)
+        if bodies:
+            rule = LiquidRule(bridge_volume=a["bridge_volume"],
+                              bridge_volume_star=a["bridge_volume_star"], total_liquid=W,
+                              conserve=self.conserve_liquid, film_fraction=self.film_fraction)
+        else:                                  # every wet grain erased: the saved rule
+            rule = LiquidRule(**restoring)
         self.pore_volume = v_p
-        self.model = BridgeModel(radii, theta, self.table if table is None else table,
+        self.model = BridgeModel(radii, theta, self._doublet if table is None else table,
                                  self.gamma, rule,
                                  formation_gap=self.formation_gap,
                                  initial_wet_gap=self.initial_wet_gap, skin=self.skin,
@@ -589,27 +610,6 @@ class CapbridgeEngine:
                   f"{rule.kind}, angles {tab.thetas.tolist()} deg, ratio nodes "
                   f"{tab.ratio_nodes.size} ({'exact' if tab.discrete else 'interpolated'}), "
                   f"table slices {tab.nbytes / 1e6:.1f} MB, refresh every {self.refresh_every}")
-
-    def _check_liquid_amount(self, W, v_s, v_p, bodies):
-        """A total liquid the grains cannot hold is an input error, not a number."""
-        if W is None:
-            return
-        a = self.amount
-        if v_p is not None and W > v_p * (1 + 1e-12):
-            raise CapbridgeInputError(
-                f"the liquid ({W:.4g} m^3) is more than the pores of the sample hold "
-                f"({v_p:.4g} m^3): saturation {W / v_p:.4g} is outside (0, 1]")
-        if W > MAX_VOID_RATIO * v_s:
-            if a["water_content"] is not None:
-                mass = float(sum(b.state.mass for b in bodies))
-                w_max = MAX_VOID_RATIO * v_s * self.liquid_density / mass
-                raise CapbridgeInputError(
-                    f"water_content={a['water_content']!r} gives {W / v_s:.3g} m^3 of liquid per "
-                    f"m^3 of grains, more than the pores of any sphere packing hold: allowed "
-                    f"(0, {w_max:.3g}] for these grains (a fraction: 0.01 for 1 %)")
-            raise CapbridgeInputError(
-                f"liquid_volume={W!r} m^3 is more than the pores of any packing of these grains "
-                f"hold: allowed (0, {MAX_VOID_RATIO * v_s:.4g}] m^3")
 
     def _map_rows(self):
         """Rows of our spheres in the bulk position read (body iteration order);
@@ -769,6 +769,7 @@ class CapbridgeEngine:
         if stash is not None and live is not None and live.startswith("saved:"):
             self._restore(O, stash)
         elif self.model is None:
+            engine_options.check_gravity(newton_gravity(O))     # before any set-up work
             self._setup()
             self._applied = np.zeros((self.ids.size, 3))
         else:
@@ -804,7 +805,8 @@ class CapbridgeEngine:
         ids = np.asarray(eng["ids"], np.intp)
         same = self.model is not None and np.array_equal(ids, self.ids)
         # same grains as the live model: its table (slices) serves again
-        self._setup(ids=ids.tolist(), table=self.model.table if same else None)
+        self._setup(ids=ids.tolist(), table=self.model.table if same else None,
+                    restoring=st["bridges"]["liquid"])
         self.model.set_state(st["bridges"])
         self.clusters = None
         for name, (_, set_) in self._parts.items():
@@ -899,34 +901,11 @@ class CapbridgeEngine:
 
     # ---------------------------------------------------------------- coalesced triplets
     def _init_triplets(self, triplet_forces, triplet_table):
-        """Triplet forces on when asked (the table is checked here; it is fitted at the
-        first coalesced triplet).  ``None`` means on if the table exists
-        (kept for scenes saved with that default)."""
-        from capbridge.surrogate.triplet import default_table
-
-        path = Path(triplet_table) if triplet_table is not None else default_table()
-        if triplet_forces is None:
-            triplet_forces = self.coalescence and path.exists()
-        elif triplet_forces and not path.exists():
-            raise CapbridgeInputError(f"triplet_forces=True but the triplet table {path} "
-                                      "does not exist: give triplet_table=... or "
-                                      "triplet_forces=False")
-        if triplet_forces and not self.coalescence:
-            raise CapbridgeInputError("triplet_forces=True needs coalescence=True (the "
-                                      "detector finds the triplets)")
-        if triplet_forces:
-            # check the table now: a damaged one would otherwise surface as a TableError
-            # traceback from the PyRunner at the first coalesced triplet
-            from capbridge.generator.netcdf_io import TableError
-            from capbridge.surrogate.triplet import TripletSurrogate
-            try:
-                TripletSurrogate._load(path)
-            except TableError as exc:
-                raise CapbridgeInputError(f"triplet_forces=True but {exc}: give a valid "
-                                          "triplet_table=... or triplet_forces=False"
-                                          ) from exc
-        self.triplet_forces = bool(triplet_forces)
-        self.triplet_table = path
+        """Triplet forces on when asked (the table is checked here, by
+        :func:`~capbridge.dem_plugin.engine_options.check_triplet_table`; it is fitted at
+        the first coalesced triplet)."""
+        self.triplet_forces, self.triplet_table = engine_options.check_triplet_table(
+            triplet_forces, triplet_table, self.coalescence)
         self.clusters = None              # made at the first coalesced triplet
 
     def _triplet_step(self, pos, geom, rep, it):

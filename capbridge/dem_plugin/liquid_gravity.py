@@ -246,6 +246,8 @@ class LiquidGravity:
         from capbridge.dem_plugin.bridges import distinct_values
 
         rad = distinct_values(model.radii)
+        if rad.size == 0:                   # every wet grain erased: no bridge to make
+            return np.empty(0), np.empty(0), np.empty(0)
         if rad.size > 4:
             rad = rad[[0, -1]]
         a, b = np.meshgrid(rad, rad, indexing="ij")
@@ -296,7 +298,7 @@ class LiquidGravity:
             self.eps, self.eps_source = table_error(model.table.surrogate)
         sur = model.table.surrogate
         self.doublet_response = bool(getattr(sur, "has_gravity", lambda: False)())
-        r_max = float(model.radii.max())
+        r_max = float(model.radii.max(initial=0.0))
         bo_max = self.drho * gn * r_max**2 / self.gamma
         rel = self.estimate(model, self.g) if gn > 0 else 0.0
         nums = (f"Bo of the largest grain (R = {r_max:.4g} m) {bo_max:.4g}, largest relative "
@@ -340,6 +342,9 @@ class LiquidGravity:
         whenever it changed."""
         g = newton_gravity(O)
         if self.g is None or not np.array_equal(g, self.g):
+            from capbridge.dem_plugin.engine_options import check_gravity
+
+            check_gravity(g)                # a NaN would end deep in the lookup
             eng._say("info" if self.g is None else "warning",
                      self.decide(eng, g, "start-up" if self.g is None else
                                  f"gravity changed at iter {int(O.iter)}"))

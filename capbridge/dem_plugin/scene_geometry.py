@@ -50,6 +50,8 @@ def setup(eng, O, sphere_theta):
 
 def _check_cell(eng):
     m = eng.model
+    if m.n == 0:                           # every wet grain erased: nothing to reach
+        return
     r = float(m.radii.max())
     reach = 2.0 * r + max(float(np.nanmax(m.table.rupture)) * r, m.skin)
     eng._cell.check_reach(reach)

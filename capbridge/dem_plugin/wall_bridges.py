@@ -415,7 +415,7 @@ class WallBridges:
     def _candidates(self, pos, reach):
         """Sphere-partner pairs within ``reach`` [m] of contact, without a bridge."""
         n, m = pos.shape[0], self.walls.ids.size
-        kk, ww = [], []
+        kk, ww = [np.empty(0, np.intp)], [np.empty(0, np.intp)]     # no sphere left: none
         for start in range(0, n, 4096):                 # bounded memory
             k = np.repeat(np.arange(start, min(n, start + 4096)), m)
             w = np.tile(np.arange(m), k.size // m)
@@ -567,7 +567,10 @@ class WallBridges:
         if self.model.liquid.kind == "fixed":
             exp = out["initial_volume"] + out["formed_volume"] - out["ruptured_volume"] \
                 - out["removed_volume"]
-            out["balance_error"] = abs(self.volume - exp) / max(abs(exp), 1e-300)
+            from capbridge.dem_plugin.bridges import balance_error
+
+            out["balance_error"] = balance_error(self.volume, exp, out["initial_volume"]
+                                                 + out["formed_volume"])
         return out
 
     def records(self, ids):
