@@ -408,5 +408,117 @@ def main(argv=None):
     return 1 if bad else 0
 
 
+
+# ------------------------------------------------------------------ engine options (item 4)
+
+#: the issue's engine keywords (and neighbours), checked by the engine's own validation
+ENGINE_BAD = {
+    "triplet_forces='no'": {"triplet_forces": "no"},
+    "coalescence='False'": {"coalescence": "False"},
+    "refresh_every=2.7": {"refresh_every": 2.7},
+    "coalescence_every=0": {"coalescence_every": 0},
+    "coalescence_every=-5": {"coalescence_every": -5},
+    "formation_gap=-1e-4": {"formation_gap": -1e-4},
+    "formation_gap=nan": {"formation_gap": float("nan")},
+    "skin=-1e-4": {"skin": -1e-4},
+    "skin=nan": {"skin": float("nan")},
+    "ratio_step=-0.1": {"ratio_step": -0.1},
+    "ratio_step=nan": {"ratio_step": float("nan")},
+    "gamma=72 (mN/m typed as N/m)": {"gamma": 72.0},
+    "theta=nan": {"theta": float("nan")},
+    "walls='all'": {"walls": "all"},
+    "label=None": {"label": None},
+    "water_content and bridge_volume together": {"bridge_volume": 1e-10},
+}
+
+
+def _engine_cases(with_yade):
+    from capbridge.dem_plugin.engine_options import check_gravity, check_options
+
+    def pure(kw):
+        args = {"water_content": 0.01, "label": "cap"}
+        args.update(kw)
+        return lambda _: api(lambda: check_options(**args))
+
+    word = {k: k.split("=")[0].split(" ")[0] for k in ENGINE_BAD}
+    cases = [Case("4", f"CapbridgeEngine({k})", "error", pure(kw), words=(word[k],))
+             for k, kw in ENGINE_BAD.items()]
+    cases.append(Case("4", "NewtonIntegrator.gravity=(0, 0, nan)", "error",
+                      lambda _: api(lambda: check_gravity((0.0, 0.0, float("nan")))),
+                      words=("gravity",)))
+    if not with_yade:
+        return cases
+
+    from capbridge.dem_plugin import yade_runtime as yr
+
+    scenes = ROOT / "tests" / "yade_scenes"
+
+    def options_scene():
+        if "options" not in _CACHE:
+            try:
+                _CACHE["options"] = yr.run_yade_script(scenes / "options_capbridge.py",
+                                                       ["--case", "all"], timeout=600).result
+            except Exception as exc:          # the YADE process died
+                _CACHE["options"] = {"_crash": f"{type(exc).__name__}: {str(exc)[-300:]}"}
+        return _CACHE["options"]
+
+    def yade_case(name):
+        def run(_):
+            res = options_scene()
+            if "_crash" in res:
+                return Result("crash", res["_crash"])
+            got = res[name]
+            if name == "valid":
+                return Result("number" if got["stage"] == "ran" else "traceback", str(got))
+            if got.get("type") == "CapbridgeInputError" and "\n" not in got["message"]:
+                return Result("error", message=got["message"])
+            msg = got.get("message", "")
+            if got["stage"] == "run" and "ERROR:" in msg:
+                # what only a running scene knows (gravity) stops the first step; YADE's
+                # PyRunner reports any engine error as "ERROR: <line>" and its stack: the
+                # line must be the engine's own CapbridgeInputError
+                line = msg.split("ERROR:", 1)[1].strip().splitlines()[0]
+                if f"CapbridgeInputError: {line}" in msg:
+                    return Result("error", message=line)
+            if got["stage"] == "ran":
+                return Result("wrong", "the scene ran with it")
+            return Result("traceback", f"{got.get('type')}: {got.get('message', '')[:300]}")
+        return run
+
+    names = _scene_case_names(scenes / "options_capbridge.py")
+    for name in names:
+        cases.append(Case("4", f"YADE scene, engine made with case {name!r}",
+                          "number" if name == "valid" else "error", yade_case(name),
+                          yade=True))
+
+    def erase(_):
+        try:
+            res = yr.run_yade_script(scenes / "erase_capbridge.py", ["--case", "both"],
+                                     timeout=600).result
+        except Exception as exc:
+            return Result("crash", f"{type(exc).__name__}: {str(exc)[-300:]}")
+        a, r = res["all"], res["resume"]
+        if a["error"] or r["error"]:
+            return Result("crash", str(a["error"] or r["error"])[:300])
+        ok = a["after"]["total_force"] == 0.0 and a["after"]["budget"]["balance_error"] < 1e-12
+        return Result("number" if ok else "wrong")
+    cases.append(Case("4", "YADE: every wet grain erased (the engine idles, then resumes)",
+                      "number", erase, yade=True))
+    return cases
+
+
+def _scene_case_names(path):
+    """The CASES keys of a scene file, read without running YADE."""
+    import ast
+
+    tree = ast.parse(Path(path).read_text())
+    for node in tree.body:
+        if isinstance(node, (ast.Assign, ast.AnnAssign)):
+            target = node.targets[0] if isinstance(node, ast.Assign) else node.target
+            if getattr(target, "id", None) == "CASES":
+                return [k.value for k in node.value.keys]
+    return []
+
+
 if __name__ == "__main__":
     sys.exit(main())
