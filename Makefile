@@ -5,7 +5,9 @@ SHELL := /bin/bash
 VENV  := .venv
 PY    := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc
+# python3-vtk9: VTK's readers check the files of capbridge.dem_plugin.vtk_output (tests);
+# the same VTK 9.1 as YADE's libvtk9.1, numpy-API only, so it imports in the venv too.
+APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc python3-vtk9
 
 .PHONY: setup system-packages demo test test-fast bench bench-evolver data reproduce clean
 
