@@ -53,7 +53,8 @@ def to_dimensionless(radius, surface_tension, gap=None, volume=None, force=None,
     Parameters are SI: radius [m], surface_tension [N/m], gap [m], volume [m^3],
     force [N], pressure [Pa], energy [J].  Returns a dict with the keys given.
 
-    >>> to_dimensionless(4e-3, 0.073, gap=0.7e-3, volume=16e-9)
+    >>> out = to_dimensionless(4e-3, 0.073, gap=0.7e-3, volume=16e-9)
+    >>> {k: round(v, 12) for k, v in out.items()}     # r**3 is pow(): +-1 ulp by processor
     {'gap': 0.175, 'volume': 0.25}
     """
     r = np.asarray(radius, float)

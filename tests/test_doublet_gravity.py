@@ -172,9 +172,27 @@ def _shipped():
     return ds
 
 
+def _response_reproducibility(eps, h, volume, f0):
+    """How far a re-solve of a gravity node may fall from the stored one: the round-off
+    part of the differences of :func:`~capbridge.generator.doublet_gravity.axial_response`
+    for forces each good to ``eps`` (F* units), steps h and h/2, W = V*/(2 pi):
+
+    w(k) = df1/(2 k W) is off by eps/(k W); w = [4 w(h/2) - w(h)]/3 by (8 + 1)/3 eps/(h W);
+    c(k) = d2F/k^2 by 4 eps/k^2; c = [4 c(h/2) - c(h)]/3 by (4*16 + 4)/3 eps/h^2;
+    the estimate (4/3)(W |dw| h + |dc| h^2/2)/|F0| by (4/3)(3 + 10) eps/|F0|.
+    """
+    W = volume / (2.0 * np.pi)
+    return {"weight_share_axial": 3.0 * eps / (h * W),
+            "force_gravity_curvature_axial": 68.0 / 3.0 * eps / h**2,
+            "response_error": 52.0 / 3.0 * eps / abs(f0)}
+
+
 def test_shipped_table_resolves_a_sample_of_its_gravity_nodes():
     """Re-solve nodes of the shipped table's gravity response (CONVERGED and
-    ABOVE_TOLERANCE ones) with the committed code: the same w, c, estimate, status."""
+    ABOVE_TOLERANCE ones) with the committed code: the same w, c, estimate, status,
+    within what the method repeats to on another processor or BLAS (not bitwise)."""
+    import json
+
     from capbridge.generator.doublet_gravity import axial_response
 
     ds = _shipped()
@@ -187,16 +205,29 @@ def test_shipped_table_resolves_a_sample_of_its_gravity_nodes():
             assert len(idx), f"no node with status {status.name}"
             picks += [tuple(i) for i in idx[rng.choice(len(idx), k, replace=False)]]
         h, rtol = ds.attrs["gravity_bond_step"], ds.attrs["gravity_response_rtol"]
+        # each force of a solve is good to the Newton tolerance on the residuals (1e-11:
+        # angle, radius and relative volume, O(1)-scaled: F* moves by as much), not to
+        # round-off: another processor may stop one iteration earlier or later.
+        # (Measured: restarting the Newton iterations 1e-7 off moves the forces by
+        # ~1e-13, w by up to 3e-9 and c by up to 3e-12 at these nodes.)
+        eps = json.loads(ds.attrs["gravity_settings"])["solver"]["tol"]
         for i in picks:
             node = {d: int(j) for d, j in zip(st.dims, i)}
             ratio, th, V, s = (float(ds[d][node[d]]) for d in st.dims)
             d0 = float(ds["rupture_gap"].sel(ratio=ratio, theta=th, volume=V))
             r = axial_response(d0 * (1 - s * s), V, th, ratio, bond_step=h, rtol=rtol)
-            assert r["status"][0] == st.values[i]
+            tol = _response_reproducibility(eps, h, V, float(ds["force_bond_zero"][node]))
             for name in ("weight_share_axial", "force_gravity_curvature_axial",
                          "response_error"):
                 want = float(ds[name][node])
-                assert r[name][0] == pytest.approx(want, rel=1e-7, abs=1e-12), (name, node)
+                # tolerance derived in _response_reproducibility (round-off of the
+                # differences of forces each good to eps = the solver's tolerance)
+                assert abs(r[name][0] - want) <= tol[name], (name, node, r[name][0], want)
+            # the status, unless the stored estimate is within its own reproducibility
+            # of the tolerance (then either status is right)
+            e = float(ds["response_error"][node])
+            if abs(e - rtol) > tol["response_error"]:
+                assert r["status"][0] == st.values[i], node
 
 
 def test_shipped_table_gravity_holdout_is_stored_and_bounded():

@@ -293,9 +293,15 @@ def test_triplet_predict_si_bond(tsur):
 
 
 def test_triplet_gravity_needs_a_response():
-    sur = TripletSurrogate(method="linear").fit(DEFAULT_TRIPLET_TABLE)
-    if sur.has_gravity_:
-        pytest.skip("the shipped table has its gravity response")
+    # the shipped table has its response: without it (a zero-gravity table), Bo > 0 is
+    # refused (this used to be skipped whenever the shipped table had one)
+    ds = read_table(DEFAULT_TRIPLET_TABLE)
+    ds = ds.drop_vars([n for n in ds.variables if "gravity" in str(n)])
+    ds.attrs.pop("data_sha256", None)
+    sur = TripletSurrogate(method="linear").fit(ds)
+    assert not sur.has_gravity_
+    np.testing.assert_array_equal(sur.predict_vectors(CENTRES, V, THETA)["status"],
+                                  sur.predict_vectors(CENTRES, V, THETA, bond=0.0)["status"])
     with pytest.raises(CapbridgeInputError, match="no gravity response"):
         sur.predict_vectors(CENTRES, V, THETA, bond=1.0)
 
@@ -458,10 +464,17 @@ def test_doublet_bad_bond(dsur):
         dsur.predict_vectors(0.05, 0.05, 30.0, bond=3.0)
     with pytest.raises(CapbridgeInputError, match="non-zero"):
         dsur.predict_vectors(0.05, 0.05, 30.0, bond=1.0, gravity=(0, 0, 0))
-    plain = DoubletSurrogate().fit(DEFAULT_TABLE)
-    if not plain.has_gravity():
-        with pytest.raises(CapbridgeInputError, match="no gravity response"):
-            plain.predict_vectors(0.05, 0.05, 30.0, bond=1.0)
+    # a table without the response (the shipped one has it: this was not checked)
+    ds = read_table(DEFAULT_TABLE)
+    gdims = {"gravity_theta", "gravity_volume", "gravity_s", "rupture_bond",
+             "rupture_gravity_axis", "rupture_ratio", "rupture_theta", "rupture_volume"}
+    ds = ds.drop_vars([n for n in ds.variables if set(ds[n].dims) & gdims])
+    ds.attrs = {k: v for k, v in ds.attrs.items()
+                if not k.startswith("gravity_") and k != "data_sha256"}
+    plain = DoubletSurrogate().fit(ds)
+    assert not plain.has_gravity()
+    with pytest.raises(CapbridgeInputError, match="no gravity response"):
+        plain.predict_vectors(0.05, 0.05, 30.0, bond=1.0)
     assert BOND_MAX == 2.5
 
 

@@ -210,18 +210,38 @@ def test_linear_law_reproduces_the_table_within_its_stored_residual(table):
         assert np.allclose(rms, table[f"fit_rms_{c}"].values, rtol=1e-9, atol=1e-14)
 
 
+#: roundings per interpolated value, relative to the largest node value involved: linear,
+#: 16 corner weights of 4 factors each, times V, summed (4 + 1 + 15, and 1 for /exact - 1);
+#: cubic, 4 successive 1-D not-a-knot spline fits and evaluations on 5 nodes (~50
+#: roundings each), amplified by the spline's Lebesgue constant 1.86 per axis (1.86^4 = 12)
+_INTERPOLATION_ROUNDINGS = {"linear": 21, "cubic": 12 * 50}
+
+
 def test_stored_interpolation_errors_are_reproduced(table):
+    """The stored held-out errors are what interpolating the stored cube gives here: to
+    the round-off of the interpolation (the processor and BLAS that made the table may
+    round differently: measured 3 ulp for cubic), not bit for bit."""
+    u = np.finfo(float).eps
     for c in COALESCENCE_CONFIGURATIONS:
         h = f"heldout_{c}"
         pts = np.vstack([table[f"{h}_{a}"].values for a in ("d12", "d13", "d23", "theta")])
         exact = table[f"{h}_V_coal"].values
         summary = json.loads(table.attrs[f"interpolation_error_{c}"])
+        # relative errors (interpolated / exact - 1): round-off of values up to max|V|
+        # divided by the exact value (max|V| / min exact ~ 4.5 here)
+        scale = np.abs(table[f"V_coal_{c}"].values).max() / np.abs(exact).min()
         for method in ("linear", "cubic"):
+            tol = _INTERPOLATION_ROUNDINGS[method] * u * scale  # 2e-14 linear, 6e-13 cubic
             e = interpolation_errors(table, c, pts, exact, method)
-            assert np.allclose(e, table[f"{h}_error_{method}"].values, rtol=0, atol=1e-14)
-            assert np.max(np.abs(e)) == pytest.approx(summary[method]["max"], rel=1e-12)
+            assert np.allclose(e, table[f"{h}_error_{method}"].values, rtol=0, atol=tol)
+            # the largest |error| moves by no more than the errors do
+            assert np.max(np.abs(e)) == pytest.approx(summary[method]["max"], rel=0, abs=tol)
+        # the linear law: V0 + theta/90 dV, V0 and dV multilinear in the gaps (as linear,
+        # 2 more roundings, values up to max(|V0| + |dV|))
+        law = np.abs(table[f"V0_{c}"].values) + np.abs(table[f"dV_{c}"].values)
+        tol = (_INTERPOLATION_ROUNDINGS["linear"] + 2) * u * law.max() / np.abs(exact).min()
         e = fit_errors(table, c, pts, exact)
-        assert np.max(np.abs(e)) == pytest.approx(summary["linear_law"]["max"], rel=1e-12)
+        assert np.max(np.abs(e)) == pytest.approx(summary["linear_law"]["max"], rel=0, abs=tol)
 
 
 def test_papers_triplet_interpolated_within_the_stored_error(table):

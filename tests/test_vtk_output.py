@@ -1,8 +1,9 @@
 """Tests of capbridge.dem_plugin.vtk_output: bridge and cluster files for ParaView.
 
-Round trips are exact (floats written as shortest round-trip reprs); where Debian's
-python3-vtk9 (or PyPI's vtk) is importable, VTK's own readers must load the files with
-the same numbers (that check is skipped otherwise, the rest is not).
+Round trips are exact (floats written as shortest round-trip reprs); VTK's own readers
+(Debian's python3-vtk9, installed by the Makefile's set-up, or PyPI's vtk) must load the
+files with the same numbers (that check is skipped without VTK outside `make test`, and
+fails inside it: tests/conftest.py).
 """
 from __future__ import annotations
 

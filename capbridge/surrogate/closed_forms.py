@@ -158,10 +158,10 @@ def pitois_cylindrical_force(gap, volume, theta, ratio=1.0):
 
     Examples
     --------
-    At contact the force is cos(theta):
+    At contact the force is cos(theta) (to the last ulp of the processor's cosine):
 
-    >>> pitois_cylindrical_force(0.0, 0.01, 60.0)
-    0.5000000000000001
+    >>> round(pitois_cylindrical_force(0.0, 0.01, 60.0), 12)
+    0.5
     >>> round(pitois_cylindrical_force(0.05, 0.01, 0.0), 3)  # exact Young-Laplace: 0.473
     0.469
     """
