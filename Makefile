@@ -5,7 +5,7 @@ SHELL := /bin/bash
 VENV  := .venv
 PY    := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-# python3-vtk9: VTK's readers check the files of capbridge.dem_plugin.vtk_output (tests);
+# python3-vtk9: VTK's readers check the files of capbridge.dem.vtk_output (tests);
 # the same VTK 9.1 as YADE's libvtk9.1, numpy-API only, so it imports in the venv too.
 APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc python3-vtk9
 

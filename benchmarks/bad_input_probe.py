@@ -153,7 +153,7 @@ def digest(path):
 # ------------------------------------------------------------------ the cases
 
 def _surrogates():
-    from capbridge.dem_plugin.triplet_clusters import load_surrogate
+    from capbridge.dem.triplet_clusters import load_surrogate
     from capbridge.surrogate.triplet import default_table
 
     return load_surrogate(default_table())
@@ -170,7 +170,7 @@ def sur():
 
 def dbl():
     if "d" not in _CACHE:
-        from capbridge.dem_plugin.bridges import default_table_path
+        from capbridge.dem.bridges import default_table_path
         from capbridge.surrogate.doublet import DoubletSurrogate
 
         _CACHE["d"] = DoubletSurrogate().fit(default_table_path())
@@ -178,7 +178,7 @@ def dbl():
 
 
 def _contact_cases():
-    from capbridge.dem_plugin.triplet_clusters import triangle_centres
+    from capbridge.dem.triplet_clusters import triangle_centres
     from capbridge.status import HAS_RESULT
 
     def rebuilt(n=400):
@@ -246,7 +246,7 @@ def _contact_cases():
 
 
 def _api_cases():
-    from capbridge.dem_plugin.triplet_clusters import triangle_centres
+    from capbridge.dem.triplet_clusters import triangle_centres
 
     def geometry():
         s = sur()
@@ -433,7 +433,7 @@ ENGINE_BAD = {
 
 
 def _engine_cases(with_yade):
-    from capbridge.dem_plugin.engine_options import check_gravity, check_options
+    from capbridge.yade.engine_options import check_gravity, check_options
 
     def pure(kw):
         args = {"water_content": 0.01, "label": "cap"}
@@ -449,7 +449,7 @@ def _engine_cases(with_yade):
     if not with_yade:
         return cases
 
-    from capbridge.dem_plugin import yade_runtime as yr
+    from capbridge.yade import yade_runtime as yr
 
     scenes = ROOT / "tests" / "yade_scenes"
 

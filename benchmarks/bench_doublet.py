@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
 from capbridge.status import Status
-from capbridge.surrogate.closed_forms import CLOSED_FORMS
+from capbridge.physics.closed_forms import CLOSED_FORMS
 from capbridge.surrogate.doublet import DoubletSurrogate
 
 TABLE = Path(__file__).resolve().parent.parent / "data" / "doublet_table.nc"

@@ -14,7 +14,7 @@ trimer: vertical force on the top grain) by
 * ours: :func:`minimise` with its default settings, computing that component only
   (``Settings.vw_components``; central virtual work, Newton steps, Richardson over the
   levels, stop by criteria) -- and, for information, with all force vectors;
-* the paper's protocol (:mod:`capbridge.generator.evolver.protocols`): starting body,
+* the paper's protocol (:mod:`capbridge.solvers.evolver.protocols`): starting body,
   N refinements with 36 gradient steps between and 1400 after, forward difference with
   delta d* = 0.06 between two independent minimisations.  The paper uses N = 6;
   ``--paper-refine`` chooses the N measured on every point and ``--paper-full`` the
@@ -33,7 +33,7 @@ for the trimers.
 0-80 deg, topology uniform among two bridges / three bridges / one coalesced body, each
 point redrawn until it is consistent with rupture and coalescence, see
 :func:`draw_points`), run through
-:func:`capbridge.generator.sweep.run_sweep` (parallel, resumable, progress bar) with
+:func:`capbridge.tables.sweep.run_sweep` (parallel, resumable, progress bar) with
 coarse settings; counts of converged and flagged points and a histogram of the reasons.
 
 ``report`` prints the markdown of both from the saved results.
@@ -102,7 +102,7 @@ def _evolver_version():
 
 def problem(pt):
     from capbridge.dimensionless import triplet_centres
-    from capbridge.generator.evolver import doublet_problem, make_problem
+    from capbridge.solvers.evolver import doublet_problem, make_problem
     p = POINTS[pt]
     if p["kind"] == "doublet":
         return doublet_problem(p["gap"], p["volume"], p["theta"])
@@ -110,15 +110,15 @@ def problem(pt):
 
 
 def settings(**kw):
-    from capbridge.generator.evolver import Settings
+    from capbridge.solvers.evolver import Settings
     base = dict(workers=1, level_timeout=4 * 3600.0, total_timeout=12 * 3600.0)
     base.update(kw)
     return Settings(**base)
 
 
 def run_ours(pt, all_forces=False, **kw):
-    from capbridge.generator.evolver import minimise
-    from capbridge.generator.evolver.protocols import reported_component
+    from capbridge.solvers.evolver import minimise
+    from capbridge.solvers.evolver.protocols import reported_component
     pb = problem(pt)
     g, u = reported_component(pb)      # reported force = F[g] . u (attraction > 0)
     if not all_forces:
@@ -139,7 +139,7 @@ def run_ours(pt, all_forces=False, **kw):
 
 
 def run_paper(pt, n_refine):
-    from capbridge.generator.evolver.protocols import forward_difference_force, paper_stretch
+    from capbridge.solvers.evolver.protocols import forward_difference_force, paper_stretch
     pb = problem(pt)
     grain, d, sign = paper_stretch(pb)
     r = forward_difference_force(pb, grain, d, delta=PAPER_DELTA, n_refine=n_refine,
@@ -153,7 +153,7 @@ def run_paper(pt, n_refine):
 def run_reference(pt):
     """Exact solver (doublets) or our method to REF_LEVEL, Richardson (trimers); and the
     forward-difference secant with perfectly converged energies (bias of delta = 0.06)."""
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.solvers.young_laplace import solve_doublet
     p = POINTS[pt]
     if p["kind"] == "doublet":
         r0 = solve_doublet(p["gap"], p["volume"], p["theta"])
@@ -161,8 +161,8 @@ def run_reference(pt):
         return dict(force=float(r0["force"]), error=0.0, kind="exact Young-Laplace",
                     secant=(float(r1["energy"]) - float(r0["energy"])) / PAPER_DELTA
                     / (2 * np.pi))
-    from capbridge.generator.evolver import minimise
-    from capbridge.generator.evolver.protocols import paper_stretch
+    from capbridge.solvers.evolver import minimise
+    from capbridge.solvers.evolver.protocols import paper_stretch
     ref = _study_reference(pt) or run_ours(pt, max_refine=REF_LEVEL, min_refine=REF_LEVEL,
                                            etol=0.0, ftol=0.0)
     pb = problem(pt)
@@ -185,7 +185,7 @@ def _study_reference(pt):
     """The same refined computation from the convergence study, if it is there (the
     paper's triplet, coalesced, V* = 16/64, theta = 0: our method to level 5, the
     vertical component only), Richardson-extrapolated over its levels."""
-    from capbridge.generator.evolver.minimise import _richardson, _richardson_array
+    from capbridge.solvers.evolver.minimise import _richardson, _richardson_array
     p = POINTS[pt]
     if not (p["kind"] == "trimer" and abs(p["volume"] - 16 / 64) < 1e-12 and p["theta"] == 0):
         return None
@@ -408,15 +408,15 @@ def draw_points(n, seed):
     * separate bridges (V*/2 or V*/3 each): every bridge below 0.9 of its exact rupture
       distance and the total volume below the coalescence volume of that layout (wetted
       caps meeting, a meniscus reaching the third grain: ``find_coalescence`` of
-      :mod:`capbridge.generator.triplet`); two bridges share the grain whose two gaps are
+      :mod:`capbridge.solvers.triplet`); two bridges share the grain whose two gaps are
       the smallest;
     * one coalesced body: V* log-uniform in [max(0.01, V_coal), 0.6], V_coal that of the
       two bridges it would otherwise be (gaps redrawn while V_coal >= 0.6).
 
     Returns (points, rejected draws per topology).
     """
-    from capbridge.generator.triplet import find_coalescence, triplet_geometry
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.solvers.triplet import find_coalescence, triplet_geometry
+    from capbridge.solvers.young_laplace import rupture_distance
     rng = np.random.default_rng(seed)
     lo, hi = np.log(0.01), np.log(0.6)
     rows = []
@@ -461,7 +461,7 @@ def draw_points(n, seed):
 def stress_problem(d12, d13, d23, volume, theta, topology):
     """Problem of a stress point.  Grains: 0 at the origin, 1 on +x, 2 in the plane."""
     from capbridge.dimensionless import triplet_centres
-    from capbridge.generator.evolver import make_problem
+    from capbridge.solvers.evolver import make_problem
     C = triplet_centres(d12, d13, d23)
     if topology == 2:
         return make_problem(C, 1.0, theta, volume, "coalesced")
@@ -479,7 +479,7 @@ STRESS = dict(max_refine=2, tol=1e-2, reasons_dir=None)
 
 def solve_stress_chunk(index, d12, d13, d23, volume, theta, topology):
     """run_sweep solver: one or more stress points, serially (one Evolver at a time)."""
-    from capbridge.generator.evolver import minimise
+    from capbridge.solvers.evolver import minimise
     from capbridge.status import Status, status_name
     n = len(index)
     out = {k: np.full(n, np.nan) for k in ("cpu", "wall", "force_error_rel", "balance",
@@ -522,7 +522,7 @@ def solve_stress_chunk(index, d12, d13, d23, volume, theta, topology):
 
 
 def stress(a):
-    from capbridge.generator.sweep import run_sweep
+    from capbridge.tables.sweep import run_sweep
     os.environ["CAPBRIDGE_EVOLVER_WORKERS"] = "1"
     out = Path(a.out)
     ck = out / f"stress_n{a.n}_seed{a.seed}_L{a.max_refine}_tol{a.tol:g}"

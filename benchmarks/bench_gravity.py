@@ -53,7 +53,7 @@ def doublet_points(sur, n, rng):
 
 
 def triplet_points(sur, n, rng):
-    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.solvers.triplet import triplet_geometry
 
     g = np.sort(rng.uniform(0.0, 0.2, (n, 3)), axis=1)
     theta = rng.uniform(30, 80, n)

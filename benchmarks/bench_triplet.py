@@ -65,7 +65,7 @@ UNEQUAL_CASES = [
     ((1.0, 1.0, 1.0), (0.03, 0.07, 0.1), 50.0, 1.3),      # equal radii: control
 ]
 
-#: Evolver settings of the shipped triplet table (capbridge.generator.triplet_table.EvolverPlan)
+#: Evolver settings of the shipped triplet table (capbridge.tables.triplet.EvolverPlan)
 EVOLVER_SETTINGS = dict(ftol=1e-2, etol=1e-2, max_refine=3, min_refine=2, workers=1,
                         level_timeout=300.0, total_timeout=900.0)
 RETRY_RINGS = (8, 12)
@@ -89,7 +89,7 @@ def case_key(case):
 def _target_volume(radii, gaps, theta, v):
     """V* = v R_h^3 V*_coal(gaps / R_h, theta) (exact equal-sphere coalescence volume)."""
     from capbridge.dimensionless import canonical_triplet
-    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+    from capbridge.solvers.triplet import find_coalescence, triplet_geometry
 
     Rh = 3.0 / np.sum(1.0 / np.asarray(radii, float))
     srt, _ = canonical_triplet(*(np.asarray(gaps) / Rh))
@@ -101,9 +101,9 @@ def _target_volume(radii, gaps, theta, v):
 
 def run_evolver(cases=UNEQUAL_CASES, cache=CACHE):
     """Solve the missing cases with Surface Evolver, one at a time; update the cache."""
-    from capbridge.generator.atomic import atomic_target
-    from capbridge.generator.evolver import Settings, minimise_bridge
-    from capbridge.generator.triplet import pair_forces
+    from capbridge.tables.atomic import atomic_target
+    from capbridge.solvers.evolver import Settings, minimise_bridge
+    from capbridge.solvers.triplet import pair_forces
 
     done = json.loads(cache.read_text()) if cache.exists() else {}
     for n, case in enumerate(cases):
@@ -151,8 +151,8 @@ def run_vcoal(n=16, seed=11, cache=VCOAL_CACHE):
     """Exact V*_coal (find_coalescence at the sorted gaps) at n random geometries and
     angles inside the shipped table's box (gaps 0-0.2, theta 0-80 deg); cached."""
     from capbridge.dimensionless import canonical_triplet
-    from capbridge.generator.atomic import atomic_target
-    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+    from capbridge.tables.atomic import atomic_target
+    from capbridge.solvers.triplet import find_coalescence, triplet_geometry
 
     rng = np.random.default_rng(seed)
     out = []

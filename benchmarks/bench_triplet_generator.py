@@ -5,7 +5,7 @@ forces compared with a reference one refinement level finer than the finest sett
 (virtual work, Richardson-extrapolated over levels 1-4).  Settings compared:
 
 * ``vw L2`` / ``vw L3``: virtual work, Richardson-extrapolated up to level 2 / 3 (the
-  table's choice is ``vw L3``, see :class:`capbridge.generator.triplet_table.EvolverPlan`);
+  table's choice is ``vw L3``, see :class:`capbridge.tables.triplet.EvolverPlan`);
 * ``direct L3`` / ``direct L4``: forces from the converged shape alone (no displaced
   runs), finest level.
 
@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from capbridge.generator.evolver import minimise_bridge
-from capbridge.generator.triplet import find_coalescence, pair_forces, triplet_geometry
-from capbridge.generator.triplet_evolver import _settings
+from capbridge.solvers.evolver import minimise_bridge
+from capbridge.solvers.triplet import find_coalescence, pair_forces, triplet_geometry
+from capbridge.solvers.triplet_evolver import _settings
 
 POINTS = [((0.175, 0.175, 0.075), 0.0, 1.2),      # the paper's triplet, just coalesced
           ((0.05, 0.1, 0.2), 30.0, 1.2),          # no symmetry

@@ -14,8 +14,8 @@ the figure is the median over the rounds.  Variants:
                  capbridge variants; detection range enlarged to cover rupture
                  (YADE needs interactions beyond contact).
 ``native``       capbridge's fixed-volume bridges (V* per bridge) through YADE's compiled
-                 Law2 (:class:`capbridge.dem_plugin.native_volume.NativeVolumeBridges`).
-``capbridge``    :class:`capbridge.dem_plugin.engine.CapbridgeEngine`, volume-controlled
+                 Law2 (:class:`capbridge.yade.native_volume.NativeVolumeBridges`).
+``capbridge``    :class:`capbridge.yade.engine.CapbridgeEngine`, volume-controlled
                  bridges (fixed V* per bridge, same theta), refresh every step.
 ``capbridge10``  the same, bridges and forces refreshed every 10 steps.
 ``capeng``       YADE's ``CapillarityEngine`` in volume mode (imposePressure=False) on
@@ -63,7 +63,7 @@ VARIANTS = ("dry", "law2", "native", "capbridge", "capbridge10", "capeng")
 # --------------------------------------------------------------------------------------
 
 def _yade_env():
-    from capbridge.dem_plugin import yade_runtime
+    from capbridge.yade import yade_runtime
     yade_runtime.ensure_yade_importable()
     import yade  # noqa: F401
     from yade import wrapper, utils
@@ -149,8 +149,8 @@ def load_packing(O, w, utils, packing):
 def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
     """Issue 9's benchmark, one variant (``law2`` or ``capbridge``); prints the result."""
     yade, w, utils = _yade_env()
-    from capbridge.dem_plugin import yade_runtime
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade import yade_runtime
+    from capbridge.yade.engine import CapbridgeEngine
 
     O = yade.Omega()
     d = load_packing(O, w, utils, packing)
@@ -224,8 +224,8 @@ def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
 def run_variant(variant, packing, files, steps, warmup, suction, factor):
     """Time one variant; prints the result line."""
     yade, w, utils = _yade_env()
-    from capbridge.dem_plugin import yade_runtime
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade import yade_runtime
+    from capbridge.yade.engine import CapbridgeEngine
 
     O = yade.Omega()
     d = load_packing(O, w, utils, packing)
@@ -251,7 +251,7 @@ def run_variant(variant, packing, files, steps, warmup, suction, factor):
                                      imposePressure=False, totalVolumeConstant=False,
                                      interactionDetectionFactor=f, label="cap")]
     elif variant == "native":
-        from capbridge.dem_plugin.native_volume import NativeVolumeBridges
+        from capbridge.yade.native_volume import NativeVolumeBridges
 
         nb = NativeVolumeBridges(Path(files).parent / "native_files", THETA, d["rad"],
                                  bridge_volume_star=VSTAR, gamma=GAMMA)
@@ -320,7 +320,7 @@ def ensure_packing(n):
 
 def ensure_files():
     """capbridge's export for theta = 30 deg (exact solver), cached."""
-    from capbridge.dem_plugin import yade_export as ye
+    from capbridge.yade import yade_export as ye
 
     d = CACHE / "files_theta30"
     if not (d / "capillaryfile_theta30.txt").exists():
@@ -333,7 +333,7 @@ def ensure_files():
 def choose_suction(r_mean=R_MEAN, r_min=R_SMALL, r_max=R_LARGE):
     """Suction [Pa] whose contact bridge between mean grains holds V* = VSTAR, and the
     detection factor covering the largest rupture gap at that suction."""
-    from capbridge.generator.young_laplace import solve_doublet, suction_rupture_distance
+    from capbridge.solvers.young_laplace import solve_doublet, suction_rupture_distance
 
     p = solve_doublet(0.0, VSTAR, THETA)["pressure"]          # P* < 0: suction = -P*
     s_star = -float(p)
@@ -360,7 +360,7 @@ def wet_poly_main(argv):
     ap.add_argument("--steps", type=int, default=500)
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
-    from capbridge.dem_plugin import yade_runtime as yr
+    from capbridge.yade import yade_runtime as yr
 
     mach = machine()
     t_start = time.time()
@@ -426,7 +426,7 @@ time of the YADE process.
 
 
 def run_one(variant, packing, files, steps, warmup, suction, factor, timeout=3600):
-    from capbridge.dem_plugin import yade_runtime as yr
+    from capbridge.yade import yade_runtime as yr
 
     args = ["--run-variant", variant, str(packing), str(files), str(steps), str(warmup),
             repr(suction), repr(factor)]
@@ -442,7 +442,7 @@ def machine():
                 break
     except OSError:
         pass
-    from capbridge.dem_plugin import yade_runtime as yr
+    from capbridge.yade import yade_runtime as yr
     inst = yr.find_yade()
     load = os.getloadavg()
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(),

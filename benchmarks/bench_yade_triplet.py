@@ -8,7 +8,7 @@ applies without the unequal-radii approximation) deposited dry under gravity in 
 (cached in ``out/bench_yade/mono_packing_N.npz``), then, each in a fresh YADE process
 (one thread):
 
-``off``    :class:`~capbridge.dem_plugin.engine.CapbridgeEngine` at the water content
+``off``    :class:`~capbridge.yade.engine.CapbridgeEngine` at the water content
            (conserved liquid on films, theta = 30 deg), coalescence checked every 10
            steps and reported only (``triplet_forces=False``);
 ``on``     the same with ``triplet_forces=True`` (``--table``): coalesced triplets get
@@ -52,8 +52,8 @@ def make_mono_packing(n, out):
 def run_capbridge(variant, packing, steps, warmup, water_content, table, every):
     """One capbridge variant (``on`` / ``off``) on the packing; prints the result line."""
     yade, w, utils = by._yade_env()
-    from capbridge.dem_plugin import yade_runtime
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade import yade_runtime
+    from capbridge.yade.engine import CapbridgeEngine
 
     O = yade.Omega()
     d = by.load_packing(O, w, utils, packing)

@@ -1,10 +1,10 @@
-"""Spot checks quoted in capbridge/generator/evolver/README.md (about 2 min on 2 cores).
+"""Spot checks quoted in capbridge/solvers/evolver/README.md (about 2 min on 2 cores).
 
     .venv/bin/python benchmarks/evolver_spot_checks.py
 """
 import time, numpy as np
 from capbridge.dimensionless import triplet_centres
-from capbridge.generator.evolver import doublet_force, minimise_bridge
+from capbridge.solvers.evolver import doublet_force, minimise_bridge
 F, r = doublet_force(gap=0.1, volume=0.05, theta=30)
 print("doublet d=0.1 V=0.05 th=30: F=%.4f" % F, r.status.name)
 C = triplet_centres(0.175, 0.175, 0.075)
@@ -25,7 +25,7 @@ for V in (0.25, 0.45):
     t = time.monotonic()
     r = minimise_bridge(C, 1.0, 60.0, V, topology="coalesced", max_refine=3)
     print(f"th60 V={V}: {r.status.name} L{r.refinement} wall {time.monotonic()-t:.0f}s {r.reason[:80]}")
-from capbridge.generator.young_laplace import solve_doublet
+from capbridge.solvers.young_laplace import solve_doublet
 for V, d in ((0.05, 0.1), (0.2, 0.02), (0.008, 0.1)):
     for th in (0.0, 30.0, 60.0):
         F, r = doublet_force(d, V, th)

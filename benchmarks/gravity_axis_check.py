@@ -8,8 +8,8 @@ Writes ``benchmarks/gravity_axis_check.json`` (refuses to replace it without
 * ``evolver``: for a few (d*, V*, theta, ratio) and Bo in {0 (reference), 0.05, 0.5,
   2.14}, gravity along the axis (grain 1 below, plus grain 1 above for the unequal pair
   at Bo = 2.14), the axial forces on both grains, the pressure at the centre of grain 1
-  and the energy from :func:`capbridge.generator.young_laplace_gravity.solve_doublet_gravity`
-  beside :func:`capbridge.generator.evolver.minimise_bridge` (topology "doublet",
+  and the energy from :func:`capbridge.solvers.young_laplace_gravity.solve_doublet_gravity`
+  beside :func:`capbridge.solvers.evolver.minimise_bridge` (topology "doublet",
   ``max_refine``), their differences, Evolver's own error estimate and CPU time, and the
   difference of the *gravity effect* F(Bo) - F(0) (Evolver's discretisation error
   cancels in it to first order).  One Evolver process at a time (shared machine).
@@ -31,7 +31,7 @@ import time
 
 import numpy as np
 
-from capbridge.generator.young_laplace_gravity import (rupture_distance_gravity,
+from capbridge.solvers.young_laplace_gravity import (rupture_distance_gravity,
                                                        solve_doublet_gravity)
 
 OUT = pathlib.Path(__file__).with_name("gravity_axis_check.json")
@@ -52,7 +52,7 @@ def exact(d, V, th, ratio, bond, gravity_axis=-1.0):
 
 
 def evolver(d, V, th, ratio, bond, gravity_axis, max_refine):
-    from capbridge.generator.evolver import minimise_bridge
+    from capbridge.solvers.evolver import minimise_bridge
 
     centres = [[0.0, 0.0, 0.0], [1.0 + ratio + d, 0.0, 0.0]]
     t = time.monotonic()
@@ -111,7 +111,7 @@ def compare_evolver(max_refine):
 
 def bond_response():
     out = []
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.solvers.young_laplace import rupture_distance
 
     for d, V, th, ratio in POINTS + FIT_ONLY:
         r = solve_doublet_gravity(d, V, th, FIT_BONDS, ratio)

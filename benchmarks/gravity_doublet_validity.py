@@ -6,7 +6,7 @@
 Writes ``benchmarks/gravity_doublet_validity.json``, checkpointed after every Evolver run
 (a rerun with the same settings resumes; other settings are refused).
 
-Representation under test (:func:`capbridge.surrogate.gravity.doublet_gravity_forces`),
+Representation under test (:func:`capbridge.physics.gravity.doublet_gravity_forces`),
 per doublet, n the unit vector from grain 1 to grain 2, b = Bo g_hat (g_hat: the direction
 along which gravity pulls), b_n = b . n, b_perp = b - b_n n, W = V*/(2 pi), forces in
 F* = F / (2 pi gamma r) units (the force of the liquid on each grain):
@@ -14,21 +14,21 @@ F* = F / (2 pi gamma r) units (the force of the liquid on each grain):
     F1(b) = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2
     F2(b) = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp]
 
-F0: exact zero-gravity attraction (:func:`capbridge.generator.young_laplace.solve_doublet`);
+F0: exact zero-gravity attraction (:func:`capbridge.solvers.young_laplace.solve_doublet`);
 w (first-order share of the weight on grain 1, gravity along the axis) and c (second
 derivative of the attraction in b_n) from the exact axisymmetric solver with gravity
-(:func:`capbridge.generator.young_laplace_gravity.solve_doublet_gravity`) by central
+(:func:`capbridge.solvers.young_laplace_gravity.solve_doublet_gravity`) by central
 differences at b_n = +-h, h = 0.5:
 
     w = [F1(+h) - F1(-h)] / (2 h W)          (w = 1/2 exactly for equal grains and angles)
     c = [F(+h) + F(-h) - 2 F(0)] / h^2       (F the mean of the two axial forces)
 
 and u (share of the transverse weight on grain 1) the lever rule 1 - x_c/D of the Bo = 0
-bridge (:func:`capbridge.surrogate.gravity.transverse_weight_share`; runs analysed before
+bridge (:func:`capbridge.physics.gravity.transverse_weight_share`; runs analysed before
 it entered the model had u = 1/2).
 
 Reference: direct Surface Evolver minimisations with gravity
-(:func:`capbridge.generator.evolver.minimise_bridge`, topology "doublet", virtual-work
+(:func:`capbridge.solvers.evolver.minimise_bridge`, topology "doublet", virtual-work
 forces Richardson-extrapolated over levels 1..L with ``min_refine = max_refine = L`` so
 every run of a state ends on the same level).  Evolver's discretisation error is removed
 by comparing gravity *effects*:
@@ -70,10 +70,10 @@ import time
 
 import numpy as np
 
-from capbridge.generator.young_laplace import rupture_distance, solve_doublet
-from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
+from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity
 from capbridge.dimensionless import centre_distance
-from capbridge.surrogate.gravity import (doublet_gravity_forces, liquid_weight,
+from capbridge.physics.gravity import (doublet_gravity_forces, liquid_weight,
                                          transverse_weight_share)
 
 OUT = pathlib.Path(__file__).with_name("gravity_doublet_validity.json")
@@ -152,7 +152,7 @@ def exact_axial(d, V, th, ratio, bond, g_axis):
 
 def evolver(d, V, th, ratio, bond, g_hat, level):
     """Forces on both grains (F* vectors) by minimise_bridge, ending on ``level``."""
-    from capbridge.generator.evolver import minimise_bridge
+    from capbridge.solvers.evolver import minimise_bridge
 
     centres = [[0.0, 0.0, 0.0], [1.0 + ratio + d, 0.0, 0.0]]
     t = time.monotonic()

@@ -1,3 +1,7 @@
 """capbridge: precomputed capillary-force database for DEM simulations of wet granular media."""
 
-__version__ = "0.1.0"
+from capbridge.version import __version__  # noqa: F401
+
+from capbridge import _legacy
+
+_legacy.install()      # old import paths (capbridge.generator, .dem_plugin, ...) still work

@@ -19,7 +19,7 @@ Bond       Bo = drho g r**2 / gamma     ``bond_number``
 For two spheres of unequal radii the normalising radius is the **smaller** one,
 ``r = R1``, and the radius ratio is ``ratio = R2 / R1 >= 1``; equal spheres are
 ``ratio = 1``.  (YADE's native capillary files use the larger radius; the exporter in
-:mod:`capbridge.dem_plugin` converts.)  A positive force is an attraction.
+:mod:`capbridge.yade` converts.)  A positive force is an attraction.
 Angles are in degrees at every interface (API, CLI, tables) and in radians inside.
 """
 from __future__ import annotations

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from capbridge.cli import main
-from capbridge.generator.young_laplace import solve_doublet
+from capbridge.solvers.young_laplace import solve_doublet
 
 
 def run(args, capsys):

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from capbridge.cli import DEFAULT_COALESCENCE_TABLE, DEFAULT_TRIPLET_TABLE, main
-from capbridge.generator.evolver import available
+from capbridge.solvers.evolver import available
 from capbridge.surrogate.triplet import TripletSurrogate
 
 pytestmark = pytest.mark.skipif(not DEFAULT_TRIPLET_TABLE.exists(),

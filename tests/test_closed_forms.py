@@ -1,11 +1,11 @@
-"""Tests for capbridge.surrogate.closed_forms (literature formulas for doublet forces)."""
+"""Tests for capbridge.physics.closed_forms (literature formulas for doublet forces)."""
 import inspect
 
 import numpy as np
 import pytest
 
-from capbridge.surrogate import closed_forms as cf
-from capbridge.surrogate.closed_forms import (
+from capbridge.physics import closed_forms as cf
+from capbridge.physics.closed_forms import (
     CLOSED_FORMS,
     lian_rupture_distance,
     pitois_cylindrical_force,
@@ -108,7 +108,7 @@ def test_rabinovich_rises_with_small_contact_angles_as_documented():
 # --------------------------------------------------------------------------------------
 
 # Exact Young-Laplace forces F* for equal spheres, hard-coded (from
-# capbridge.generator.young_laplace.solve_doublet; an independent shooting solution gives
+# capbridge.solvers.young_laplace.solve_doublet; an independent shooting solution gives
 # the same to 1e-4): (gap d*, volume V*, theta [deg], F*).
 YOUNG_LAPLACE = [
     (0.0, 0.001, 0.0, 0.9361),

@@ -70,7 +70,7 @@ def test_missing_argument_exits_nonzero(capsys):
 
 @pytest.mark.evolver
 def test_energy_option(capsys):
-    from capbridge.generator.evolver import available
+    from capbridge.solvers.evolver import available
     if not available():
         pytest.skip("Surface Evolver not installed")
     rc, out, _ = run(capsys, *BASE, "--theta", "60", "--energy", "--energy-fractions",

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from capbridge.surrogate.coalescence_fit import PAPER_FIT, CoalescenceVolumeFit
+from capbridge.physics.coalescence_fit import PAPER_FIT, CoalescenceVolumeFit
 from capbridge.validation import CapbridgeInputError
 
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin.bridges import default_table_path
-from capbridge.dem_plugin.triplet_clusters import load_surrogate, triangle_centres
+from capbridge.dem.bridges import default_table_path
+from capbridge.dem.triplet_clusters import load_surrogate, triangle_centres
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.surrogate.triplet import default_table

@@ -1,10 +1,10 @@
-"""Gravity phases of the doublet table (capbridge.generator.doublet_gravity)."""
+"""Gravity phases of the doublet table (capbridge.tables.doublet_gravity)."""
 import numpy as np
 import pytest
 
-from capbridge.generator.doublet_gravity import GravityPlan
-from capbridge.generator.doublet_table import DoubletGrid, build_doublet_table
-from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+from capbridge.tables.doublet_gravity import GravityPlan
+from capbridge.tables.doublet import DoubletGrid, build_doublet_table
+from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity
 from capbridge.status import Status
 
 THETA, VOLUME = 30.0, 0.05
@@ -95,8 +95,8 @@ def test_without_gravity_the_table_has_none():
 
 
 def test_a_line_stops_at_its_first_failure(monkeypatch):
-    from capbridge.generator import doublet_gravity as dg
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.tables import doublet_gravity as dg
+    from capbridge.solvers.young_laplace import rupture_distance
 
     calls = []
     real = dg.axial_response
@@ -131,8 +131,8 @@ def test_near_rupture_the_share_leaves_zero_one_and_is_right():
     # ratio 2 near rupture: the attraction's own first-order change with b.n outweighs
     # the weight, so "grain 1's share" is negative; that is physics, and the
     # extrapolated h = 0.5 differences get it (measured 1.7e-6 off the h = 0.02 value)
-    from capbridge.generator.doublet_gravity import axial_response
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.tables.doublet_gravity import axial_response
+    from capbridge.solvers.young_laplace import rupture_distance
 
     V, th, R = 0.05, 0.0, 2.0
     d = float(rupture_distance(V, th, R)["gap"]) * (1 - 0.25**2)
@@ -144,8 +144,8 @@ def test_near_rupture_the_share_leaves_zero_one_and_is_right():
 
 
 def test_a_point_too_close_to_rupture_is_flagged_and_its_estimate_bounds_its_error():
-    from capbridge.generator.doublet_gravity import axial_response
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.tables.doublet_gravity import axial_response
+    from capbridge.solvers.young_laplace import rupture_distance
 
     V, th, R = 0.05, 0.0, 2.0
     d = float(rupture_distance(V, th, R)["gap"]) * (1 - 0.146**2)
@@ -174,7 +174,7 @@ def _shipped():
 
 def _response_reproducibility(eps, h, volume, f0):
     """How far a re-solve of a gravity node may fall from the stored one: the round-off
-    part of the differences of :func:`~capbridge.generator.doublet_gravity.axial_response`
+    part of the differences of :func:`~capbridge.tables.doublet_gravity.axial_response`
     for forces each good to ``eps`` (F* units), steps h and h/2, W = V*/(2 pi):
 
     w(k) = df1/(2 k W) is off by eps/(k W); w = [4 w(h/2) - w(h)]/3 by (8 + 1)/3 eps/(h W);
@@ -193,7 +193,7 @@ def test_shipped_table_resolves_a_sample_of_its_gravity_nodes():
     within what the method repeats to on another processor or BLAS (not bitwise)."""
     import json
 
-    from capbridge.generator.doublet_gravity import axial_response
+    from capbridge.tables.doublet_gravity import axial_response
 
     ds = _shipped()
     with ds:
@@ -246,7 +246,7 @@ def test_transverse_share_is_the_lever_rule_and_matches_evolver():
     ratio-2 doublet of benchmarks/gravity_doublet_validity.py (d* 0.1, V* 0.05, theta 20)
     the share Surface Evolver gives the small grain under transverse gravity: 0.656 (Bo
     0.5, level 3), 0.663 (Bo 2.14 and 2.5), 0.665 (Bo 2.14, level 4)."""
-    from capbridge.generator.doublet_gravity import axial_response
+    from capbridge.tables.doublet_gravity import axial_response
 
     r = axial_response([0.1, 0.1], 0.05, [30.0, 20.0], [1.0, 2.0])
     u = r["weight_share_transverse"]
@@ -257,8 +257,8 @@ def test_transverse_share_is_the_lever_rule_and_matches_evolver():
 def test_the_axes_checked_before_the_sweep_are_those_of_the_table(table):
     # generate doublet compares an existing file with these before hours of solves; the
     # file written at the end must have exactly them (else it is refused only then)
-    from capbridge.generator.doublet_table import table_axes
-    from capbridge.generator.netcdf_io import _same_grid, table_grid
+    from capbridge.tables.doublet import table_axes
+    from capbridge.tables.netcdf_io import _same_grid, table_grid
 
     assert _same_grid(table_axes(GRID, PLAN), table_grid(table))
     assert not _same_grid(table_axes(GRID, None), table_grid(table))

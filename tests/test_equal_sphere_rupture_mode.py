@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-from capbridge.generator.young_laplace import bridge_profile, rupture_distance
+from capbridge.solvers.young_laplace import bridge_profile, rupture_distance
 
 _H = np.linspace(-40.0, 3.0, 2000)        # mean curvature scan (suction side mostly)
 

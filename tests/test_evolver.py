@@ -1,4 +1,4 @@
-"""Surface Evolver driver (capbridge.generator.evolver) on small meshes.
+"""Surface Evolver driver (capbridge.solvers.evolver) on small meshes.
 
 Tests that run ``evolver`` are marked ``evolver`` and skipped when the binary is missing.
 Each stays well under 30 s on two cores (refinement level 2-3, a few hundred to ~2000
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from capbridge.dimensionless import cap_area, triplet_centres
-from capbridge.generator.evolver import (Settings, available, doublet_force, doublet_problem,
+from capbridge.solvers.evolver import (Settings, available, doublet_force, doublet_problem,
                                          make_problem, minimise, minimise_bridge)
-from capbridge.generator.evolver import geometry, runner
-from capbridge.generator.evolver.datafile import mesh_problem, write_datafile
+from capbridge.solvers.evolver import geometry, runner
+from capbridge.solvers.evolver.datafile import mesh_problem, write_datafile
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -25,7 +25,7 @@ needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not 
 
 
 def _exact(gap, volume, theta):
-    yl = pytest.importorskip("capbridge.generator.young_laplace")
+    yl = pytest.importorskip("capbridge.solvers.young_laplace")
     r = yl.solve_doublet(gap, volume, theta)
     if int(r["status"]) != int(Status.CONVERGED):
         pytest.skip("exact solver did not converge for this point")
@@ -175,7 +175,7 @@ def test_unequal_radii_doublet():
     F, r = doublet_force(0.1, 0.05, 30.0, ratio=2.0, max_refine=3)
     assert r.status in HAS_RESULT, r.reason
     assert np.abs(r.forces[0] + r.forces[1]).max() < 1e-4
-    yl = pytest.importorskip("capbridge.generator.young_laplace")
+    yl = pytest.importorskip("capbridge.solvers.young_laplace")
     ex = yl.solve_doublet(0.1, 0.05, 30.0, ratio=2.0)
     if int(ex["status"]) == int(Status.CONVERGED):
         assert F == pytest.approx(float(ex["force"]), rel=0.01)
@@ -254,8 +254,8 @@ def test_timeout_is_flagged():
 def test_only_gravity_free_level_passed_is_flagged_not_raised(monkeypatch):
     """With gravity, level 0 is relaxed without it; when every later level fails the
     result assembly used to raise IndexError (no level with the problem's Bond number)."""
-    from capbridge.generator.evolver import checks
-    mod = importlib.import_module("capbridge.generator.evolver.minimise")
+    from capbridge.solvers.evolver import checks
+    mod = importlib.import_module("capbridge.solvers.evolver.minimise")
 
     real = mod._Runner.level
 
@@ -275,7 +275,7 @@ def test_only_gravity_free_level_passed_is_flagged_not_raised(monkeypatch):
 @pytest.mark.evolver
 @needs_evolver
 def test_driver_exception_is_flagged(monkeypatch):
-    mod = importlib.import_module("capbridge.generator.evolver.minimise")
+    mod = importlib.import_module("capbridge.solvers.evolver.minimise")
 
     def boom(R, res):
         raise IndexError("simulated")
@@ -318,14 +318,14 @@ def test_theta0_virtual_work_fine_mesh_settings_at_level4():
 @pytest.mark.evolver
 @needs_evolver
 def test_paper_protocol_forward_difference():
-    from capbridge.generator.evolver.protocols import forward_difference_force
+    from capbridge.solvers.evolver.protocols import forward_difference_force
 
     pb = doublet_problem(0.1, 0.05, 30.0)
     r = forward_difference_force(pb, 1, [1.0, 0.0, 0.0], delta=0.06, n_refine=2,
                                  ngrad_between=10, ngrad_after=100)
     assert r.ok, r.reason
     assert r.base.n_facets == 256 and r.base.checkpoints[-1, 0] == 100
-    yl = pytest.importorskip("capbridge.generator.young_laplace")
+    yl = pytest.importorskip("capbridge.solvers.young_laplace")
     e0 = float(yl.solve_doublet(0.1, 0.05, 30.0)["energy"])
     e1 = float(yl.solve_doublet(0.16, 0.05, 30.0)["energy"])
     secant = (e1 - e0) / 0.06 / (2 * np.pi)
@@ -346,7 +346,7 @@ def test_evolver_dies_with_a_killed_python_parent(tmp_path):
     import time
 
     write_datafile(mesh_problem(doublet_problem(0.1, 0.05, 30.0)), tmp_path / "a.fe")
-    code = ("from capbridge.generator.evolver import runner; "
+    code = ("from capbridge.solvers.evolver import runner; "
             f"runner.run_evolver('a.fe', 'g 100000000;\\nquit\\n', {str(tmp_path)!r}, "
             "timeout=120)")
     py = subprocess.Popen([sys.executable, "-c", code])
@@ -384,7 +384,7 @@ def test_caps_meeting_on_the_coarse_mesh_is_checked_on_a_finer_one():
     """Three separate bridges at 0.59 of their exact coalescence volume (stress point 18):
     the level-0 rings made caps meet and the point used to be flagged COALESCED.  Above
     V_coal (1.3 x) the caps meet at min_refine and the flag stands."""
-    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+    from capbridge.solvers.triplet import find_coalescence, triplet_geometry
 
     d, theta = (0.3748, 0.0504, 0.1661), 53.45
     pairs = [(0, 1), (0, 2), (1, 2)]

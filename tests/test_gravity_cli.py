@@ -11,9 +11,9 @@ import pandas as pd
 import pytest
 
 from capbridge.cli import DEFAULT_COALESCENCE_TABLE, main
-from capbridge.generator.netcdf_io import write_table
-from capbridge.generator.triplet import triplet_geometry
-from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+from capbridge.tables.netcdf_io import write_table
+from capbridge.solvers.triplet import triplet_geometry
+from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.surrogate.triplet import TripletSurrogate
 from test_gravity_surrogate import (DTHETA, DV, add_synthetic_holdout, needs_tables,
@@ -139,7 +139,7 @@ def test_solve_doublet_axial_gravity_is_the_exact_solver(capsys):
 
 
 def test_solve_doublet_oblique_gravity_uses_evolver(monkeypatch, capsys):
-    import capbridge.generator.evolver as ev
+    import capbridge.solvers.evolver as ev
     from capbridge.status import Status
 
     seen = {}
@@ -189,7 +189,7 @@ def test_solve_bad_gravity_input(capsys, extra, words):
 
 
 def test_solve_triplet_passes_gravity_to_evolver(monkeypatch, capsys):
-    import capbridge.generator.triplet_evolver as te
+    import capbridge.solvers.triplet_evolver as te
 
     seen = {}
 
@@ -247,7 +247,7 @@ def test_help_documents_the_gravity_options(capsys):
 ])
 def test_solve_doublet_bond_off_axis_checks_inputs_before_evolver(args, words, capsys,
                                                                   monkeypatch):
-    import capbridge.generator.evolver as ev
+    import capbridge.solvers.evolver as ev
 
     def never(*a, **k):
         raise AssertionError("Surface Evolver must not run on bad input")

@@ -13,11 +13,11 @@ import xarray as xr
 
 from capbridge.cli import DEFAULT_COALESCENCE_TABLE, DEFAULT_TABLE, DEFAULT_TRIPLET_TABLE
 from capbridge.dimensionless import bond_number
-from capbridge.generator.netcdf_io import read_table
-from capbridge.generator.triplet import triplet_geometry
+from capbridge.tables.netcdf_io import read_table
+from capbridge.solvers.triplet import triplet_geometry
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import BOND_MAX, DoubletSurrogate
-from capbridge.surrogate.gravity import liquid_weight
+from capbridge.physics.gravity import liquid_weight
 from capbridge.surrogate.triplet import TripletSurrogate, table_frame
 from capbridge.validation import CapbridgeInputError
 
@@ -32,7 +32,7 @@ SYNTHETIC_RESIDUAL = 0.02
 # ----------------------------------------------------------------------------- tables
 def synthetic_triplet_table(seed=0, fail_node=False):
     """The shipped triplet table with a synthetic gravity response (same layout as
-    :func:`capbridge.generator.triplet_table._gravity_dataset`) and no held-out gravity
+    :func:`capbridge.tables.triplet._gravity_dataset`) and no held-out gravity
     points.  G_i = W_node (S_i + E_i) with sum_i S_i = I and |sum_i E_i| bounded by
     SYNTHETIC_RESIDUAL (stored as gravity_sum_residual); C random."""
     ds = read_table(DEFAULT_TRIPLET_TABLE)
@@ -66,7 +66,7 @@ def synthetic_triplet_table(seed=0, fail_node=False):
 
 def synthetic_doublet_table():
     """The shipped doublet table with a synthetic response in the layout of
-    :func:`capbridge.generator.doublet_gravity.gravity_datasets`: the weight share of
+    :func:`capbridge.tables.doublet_gravity.gravity_datasets`: the weight share of
     grain 1 (exactly 1/2 for equal grains) and a curvature on a sub-grid (every second
     theta, volume and s node, without s = 0), and rupture distances with gravity along
     the axis on a smaller one, shorter with grain 1 below, longer with it above:
@@ -129,10 +129,10 @@ SYNTHETIC_HOLDOUT_ERROR = {0.0: 0.0, 0.05: 1e-4, 0.5: 1e-3, 2.14: 5e-3, 2.5: 0.2
 
 def add_synthetic_holdout(ds, surrogate):
     """``ds`` with held-out gravity points (layout of
-    :func:`capbridge.generator.triplet_table._gravity_holdout_dataset`) whose 'direct'
+    :func:`capbridge.tables.triplet._gravity_holdout_dataset`) whose 'direct'
     forces are ``surrogate``'s own answer plus SYNTHETIC_HOLDOUT_ERROR times the largest
     grain force on every component."""
-    from capbridge.generator.triplet_gravity import HOLDOUT_CASES
+    from capbridge.tables.triplet_gravity import HOLDOUT_CASES
 
     rows, F = [], []
     for gaps, theta, v, name, direction in HOLDOUT_CASES:
@@ -506,8 +506,8 @@ def real_doublet():
     """A tiny doublet table with its real gravity phases (~20 s): ratios 1 and 2,
     theta 20 and 30 deg, V* 0.03 and 0.05, s 0, 0.5, 1; rupture with gravity at
     Bo = 0.5 for ratio 2, theta 30, V* 0.05."""
-    from capbridge.generator.doublet_gravity import GravityPlan
-    from capbridge.generator.doublet_table import DoubletGrid, build_doublet_table
+    from capbridge.tables.doublet_gravity import GravityPlan
+    from capbridge.tables.doublet import DoubletGrid, build_doublet_table
 
     grid = DoubletGrid((1.0, 2.0), (20.0, 30.0), (0.03, 0.05), (0.0, 0.5, 1.0))
     plan = GravityPlan(theta_every=1, volume_every=1, s_every=1, rupture_ratios=(2.0,),
@@ -518,7 +518,7 @@ def real_doublet():
 
 @pytest.mark.parametrize("ratio", [1.0, 2.0])
 def test_doublet_real_response_against_the_exact_solver(real_doublet, ratio):
-    from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+    from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity
 
     ds, sur = real_doublet
     d0 = float(ds["rupture_gap"].sel(ratio=ratio, theta=30.0, volume=0.05))

@@ -25,12 +25,12 @@ import xarray as xr
 
 from capbridge import cli
 from capbridge.cli import main
-from capbridge.generator import doublet_table as dt
-from capbridge.generator.netcdf_io import (TableError, TableExistsError, read_table,
+from capbridge.tables import doublet as dt
+from capbridge.tables.netcdf_io import (TableError, TableExistsError, read_table,
                                            write_table)
-from capbridge.generator.sweep import (SchedulerUnavailableError, SweepFailedError,
+from capbridge.tables.sweep import (SchedulerUnavailableError, SweepFailedError,
                                        run_sweep)
-from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
 from capbridge.status import Status
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.validation import CapbridgeInputError, check_range
@@ -209,7 +209,7 @@ def test_workers_die_with_their_parent(tmp_path):
         import sys, numpy as np
         sys.path.insert(0, {str(TESTS_DIR)!r})
         import test_hardening as t
-        from capbridge.generator.sweep import run_sweep
+        from capbridge.tables.sweep import run_sweep
         x = np.arange(8.0)
         run_sweep(t.solve_slowly, {{"x": x, "y": x}}, checkpoint_dir=None, chunk_size=1,
                   n_jobs=2, progress=False)
@@ -548,7 +548,7 @@ def test_refinement_coarser_than_the_error_model_is_refused(table):
 def test_evolver_status_above_tolerance():
     from types import SimpleNamespace
 
-    from capbridge.generator.evolver.minimise import BridgeResult, Settings, _set_final_status
+    from capbridge.solvers.evolver.minimise import BridgeResult, Settings, _set_final_status
 
     s = Settings()
     assert s.flag_above_tolerance            # on by default
@@ -572,8 +572,8 @@ def test_evolver_status_above_tolerance():
 
 @pytest.mark.evolver
 def test_evolver_single_level_is_not_converged():
-    from capbridge.generator.evolver import available, doublet_force
-    from capbridge.generator.evolver.minimise import Settings
+    from capbridge.solvers.evolver import available, doublet_force
+    from capbridge.solvers.evolver.minimise import Settings
 
     if not available():
         pytest.skip("Surface Evolver not installed")
@@ -632,7 +632,7 @@ def test_messages(capsys, monkeypatch):
                         "--theta", "0"], capsys)
     assert_clean_error(code, err, "default search limit --v-max 2.5")
     # solve: the requested volume is echoed even when the solve fails
-    import capbridge.generator.young_laplace as yl
+    import capbridge.solvers.young_laplace as yl
 
     def not_converged(gap, volume, theta, ratio=1.0, theta2=None):
         nan = np.float64(np.nan)

@@ -1,4 +1,4 @@
-"""Tests of capbridge.generator.netcdf_io (CF netCDF tables)."""
+"""Tests of capbridge.tables.netcdf_io (CF netCDF tables)."""
 from __future__ import annotations
 
 import datetime as dt
@@ -10,7 +10,7 @@ import pytest
 import xarray as xr
 
 import capbridge
-from capbridge.generator.netcdf_io import (read_table, table_solver_settings,
+from capbridge.tables.netcdf_io import (read_table, table_solver_settings,
                                            write_table)
 from capbridge.status import Status, cf_flag_attributes
 

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from capbridge.cli import main
-from capbridge.generator.evolver import available
+from capbridge.solvers.evolver import available
 
 needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 

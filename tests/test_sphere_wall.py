@@ -1,4 +1,4 @@
-"""Tests of the exact sphere-wall bridge capbridge.generator.sphere_wall.
+"""Tests of the exact sphere-wall bridge capbridge.solvers.sphere_wall.
 
 Every tolerance is the size of a known error (stated where it is used): round-off of
 the solver, finite differences, or the distance to a limit that is measured here.
@@ -8,12 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from capbridge.generator import young_laplace as yl
-from capbridge.generator.sphere_wall import (ATTRS, OUTPUTS, solve_sphere_wall,
+from capbridge.solvers import young_laplace as yl
+from capbridge.solvers.sphere_wall import (ATTRS, OUTPUTS, solve_sphere_wall,
                                              sphere_wall_rupture_distance, sphere_wall_table)
-from capbridge.generator.young_laplace import SolverSettings, rupture_distance, solve_doublet
+from capbridge.solvers.young_laplace import SolverSettings, rupture_distance, solve_doublet
 from capbridge.status import Status
-from capbridge.surrogate.closed_forms import lian_rupture_distance
+from capbridge.physics.closed_forms import lian_rupture_distance
 from capbridge.validation import CapbridgeInputError
 
 CONVERGED, RUPTURED = int(Status.CONVERGED), int(Status.RUPTURED)
@@ -40,7 +40,7 @@ def test_wall_profile_matches_ode_integration():
     from scipy.integrate import solve_ivp
 
     from capbridge.dimensionless import cap_area, cap_volume
-    from capbridge.generator.sphere_wall import wall_shape
+    from capbridge.solvers.sphere_wall import wall_shape
 
     cases = [(-4.0, 0.35, 0.25, 0.3, 0.5), (0.9, 0.3, 0.6, 1.2, 1.0), (2.5, 0.4, 0.9, 0.2, 1.3),
              (-30.0, 0.12, 0.04, 0.0, 0.0), (-1.0, 0.6, 0.5, 0.5, 0.5 * np.pi)]

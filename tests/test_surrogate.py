@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from capbridge.cli import DEFAULT_TABLE
-from capbridge.generator.netcdf_io import read_table
-from capbridge.generator.young_laplace import solve_doublet
+from capbridge.tables.netcdf_io import read_table
+from capbridge.solvers.young_laplace import solve_doublet
 from capbridge.status import Status
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.validation import CapbridgeInputError
@@ -59,7 +59,7 @@ def test_surrogate_matches_exact_away_from_rupture(surrogate):
 
 
 def test_rupture_distance_and_beyond(surrogate):
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.solvers.young_laplace import rupture_distance
 
     exact = rupture_distance(0.02, 20.0)
     r = surrogate.predict(0.0, 0.02, 20.0)
@@ -134,7 +134,7 @@ def test_si_api_matches_dimensionless(surrogate):
 
 def test_table_rupture_rows_resolve_exactly(table):
     """The stored rupture distances (s = 0 rows) re-solved now agree to 1e-6."""
-    from capbridge.generator.young_laplace import rupture_distance
+    from capbridge.solvers.young_laplace import rupture_distance
 
     rng = np.random.default_rng(8)
     st = table.stack(p=("ratio", "theta", "volume"))

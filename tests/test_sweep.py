@@ -1,4 +1,4 @@
-"""Tests of capbridge.generator.sweep (resumable parallel sweeps) with toy solvers."""
+"""Tests of capbridge.tables.sweep (resumable parallel sweeps) with toy solvers."""
 from __future__ import annotations
 
 import json
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.generator.sweep import (CheckpointMismatchError, SweepResult,
+from capbridge.tables.sweep import (CheckpointMismatchError, SweepResult,
                                        run_sweep)
 from capbridge.status import Status
 
@@ -298,7 +298,7 @@ def test_sigkill_keeps_finished_chunks(tmp_path):
         import sys, numpy as np
         sys.path.insert(0, {str(TESTS_DIR)!r}); sys.path.insert(0, {str(ROOT)!r})
         import test_sweep
-        from capbridge.generator.sweep import run_sweep
+        from capbridge.tables.sweep import run_sweep
         inp = test_sweep._inputs(400)
         res = run_sweep(test_sweep.solve_product, inp, checkpoint_dir={str(ck)!r},
                         chunk_size=10, n_jobs=1, progress=False)

@@ -2,10 +2,10 @@
 import numpy as np
 import pytest
 
-from capbridge.generator.triplet import (bridge_meridian, coalescence_margins,
+from capbridge.solvers.triplet import (bridge_meridian, coalescence_margins,
                                          find_coalescence, pair_forces, parse_bridges,
                                          triplet_geometry, uncoalesced_state)
-from capbridge.generator.young_laplace import solve_doublet
+from capbridge.solvers.young_laplace import solve_doublet
 from capbridge.validation import CapbridgeInputError
 
 PAPER = triplet_geometry(0.175, 0.175, 0.075)     # Miot et al. 2021, r = 4 mm

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
-from capbridge.dem_plugin.coalescence_detect import find_coalescence
-from capbridge.dem_plugin.triplet_clusters import (LiquidClusters, load_surrogate,
+from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
+from capbridge.dem.coalescence_detect import find_coalescence
+from capbridge.dem.triplet_clusters import (LiquidClusters, load_surrogate,
                                                     triangle_centres)
 from capbridge.dimensionless import force_scale
 from capbridge.status import Status
@@ -50,7 +50,7 @@ def doublets():
 def _geometry(sur, theta=0.0, v=1.6):
     """Gaps inside the table (a quarter and a half of its gap range, the shared grain
     2 at the wider two) and the total volume v V*_coal."""
-    from capbridge.generator.triplet import find_coalescence, triplet_geometry
+    from capbridge.solvers.triplet import find_coalescence, triplet_geometry
 
     lo, hi = sur.gaps_[0], sur.gaps_[-1]
     g01, g = lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo)
@@ -73,7 +73,7 @@ def _model(centres, pairs, volumes, theta, doublets, conserve=False):
         # the initial bridges take the films' liquid by the film rule: put it back
         # and give every bridge its volume, films empty (the ledger: total liquid)
         m.films[:] = 0.0
-        from capbridge.dem_plugin.triplet_clusters import set_bridge_volumes
+        from capbridge.dem.triplet_clusters import set_bridge_volumes
         set_bridge_volumes(m, np.arange(m.n_bridges), np.asarray(volumes, float))
     return m
 
@@ -129,8 +129,8 @@ def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve,
     doublet table's pressure error, 1e-3, with the table split, whose volumes are also
     those of the exact split within 1e-3), their volumes add up to the cluster's to
     1e-12, the ledger balances to 1e-12, the doublet forces are back."""
-    from capbridge.generator.triplet_coalescence import separated_state
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.tables.coalescence import separated_state
+    from capbridge.solvers.young_laplace import solve_doublet
 
     m, cl, pos, V, _, _ = _merged(sur, doublets, conserve=conserve, split=split)
     pos = pos.copy()
@@ -181,7 +181,7 @@ def test_split_when_the_separated_state_is_lower(sur, doublets):
     """The energy rule: with a table whose separated state is lower everywhere
     (E_sep = E_coal - 0.5, a constructed field: this tests the rule, not the physics)
     a merged cluster splits (split_energy) and a new one is refused (merge_refused)."""
-    from capbridge.generator.netcdf_io import read_table
+    from capbridge.tables.netcdf_io import read_table
 
     ds = read_table(TABLE)
     # an edited copy (no checksum), without a separated energy of its own
@@ -339,7 +339,7 @@ def test_merged_triplet_joining_a_funicular_cluster_is_released(sur, doublets):
 def test_engine_options_of_triplet_forces():
     """CapbridgeEngine: triplet_forces=True without its table is one clear error; by
     default a missing table means report only; a bad triplet_split is refused."""
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade.engine import CapbridgeEngine
 
     with pytest.raises(CapbridgeInputError, match="nonexistent.nc does not exist"):
         CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True,
@@ -358,7 +358,7 @@ def test_engine_options_of_triplet_forces():
 def test_engine_refuses_a_damaged_triplet_table_at_construction(tmp_path):
     """A damaged triplet table is one clear error when the engine is made, not a
     TableError traceback from the PyRunner at the first coalesced triplet."""
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade.engine import CapbridgeEngine
 
     bad = tmp_path / "triplet_table.nc"
     bad.write_text("not a table")

@@ -6,15 +6,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.generator.netcdf_io import read_table
-from capbridge.generator.triplet import find_coalescence, triplet_geometry, uncoalesced_state
-from capbridge.generator.triplet_coalescence import (COALESCENCE_CONFIGURATIONS,
+from capbridge.tables.netcdf_io import read_table
+from capbridge.solvers.triplet import find_coalescence, triplet_geometry, uncoalesced_state
+from capbridge.tables.coalescence import (COALESCENCE_CONFIGURATIONS,
                                                      CoalescenceGrid, build_coalescence_table,
                                                      coalescence_chunk, fit_errors,
                                                      interpolation_errors,
                                                      lowest_separated_energy, main,
                                                      save_coalescence_table, separated_state)
-from capbridge.generator.young_laplace import solve_doublet, solve_doublet_suction
+from capbridge.solvers.young_laplace import solve_doublet, solve_doublet_suction
 from capbridge.status import Status
 from capbridge.validation import CapbridgeInputError
 

@@ -5,9 +5,9 @@ Small meshes (refinement level 2); each Evolver test takes a few seconds on two 
 import numpy as np
 import pytest
 
-from capbridge.generator.evolver import available
-from capbridge.generator.triplet import triplet_geometry, uncoalesced_state
-from capbridge.generator.triplet_evolver import (coalescence_from_cap_gaps,
+from capbridge.solvers.evolver import available
+from capbridge.solvers.triplet import triplet_geometry, uncoalesced_state
+from capbridge.solvers.triplet_evolver import (coalescence_from_cap_gaps,
                                                  energy_convention_check, evolver_triplet)
 
 needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.generator.evolver import available
-from capbridge.generator.triplet import triplet_geometry
-from capbridge.generator.triplet_gravity import (_RUNS, GravityPlan, gravity_chunk,
+from capbridge.solvers.evolver import available
+from capbridge.solvers.triplet import triplet_geometry
+from capbridge.tables.triplet_gravity import (_RUNS, GravityPlan, gravity_chunk,
                                                  gravity_tensors, rotate_gravity_tensor)
-from capbridge.generator.triplet_table import TripletGrid, _expand_to_cube
+from capbridge.tables.triplet import TripletGrid, _expand_to_cube
 from capbridge.status import Status
 
 TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
@@ -152,7 +152,7 @@ def test_shipped_response_resolved_by_evolver(table):
     # (or F_y(h) / h): |dG| <= etol_newton / (2 pi delta h) = 6.4e-10 here.  (Round-off
     # that tipped a mesh-grooming decision would move G by the mesh error instead,
     # ~gravity_sum_residual W = 5e-5; not seen: the AMD re-run matches to 4e-18.)
-    from capbridge.generator.evolver.minimise import Settings
+    from capbridge.solvers.evolver.minimise import Settings
 
     evo = Settings()
     delta = min(evo.delta, max(min(p["d12"], p["d13"], p["d23"]) / 20.0, 2e-4))   # vw_delta

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from capbridge.generator.netcdf_io import read_table
+from capbridge.tables.netcdf_io import read_table
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.triplet import (LOWER_ENERGY_STATES, PAIR_NAMES, PAIRS,
                                          TripletSurrogate, _Descending, _Grid,

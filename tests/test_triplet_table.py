@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from capbridge.dimensionless import canonical_triplet
-from capbridge.generator.evolver import available
-from capbridge.generator.triplet import pair_forces, triplet_geometry
-from capbridge.generator.triplet_table import (PAIR_NAMES, PAIRS, EvolverPlan, TripletGrid,
+from capbridge.solvers.evolver import available
+from capbridge.solvers.triplet import pair_forces, triplet_geometry
+from capbridge.tables.triplet import (PAIR_NAMES, PAIRS, EvolverPlan, TripletGrid,
                                                _expand_to_cube, failure_kind)
 from capbridge.status import Status
 
@@ -87,7 +87,7 @@ def test_failure_kinds_from_driver_reasons():
 
 @pytest.fixture(scope="module")
 def table():
-    from capbridge.generator.netcdf_io import read_table
+    from capbridge.tables.netcdf_io import read_table
 
     return read_table(TABLE)
 
@@ -124,7 +124,7 @@ def test_shipped_table_forces_balance_and_records_its_command(table):
 @pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 def test_shipped_points_resolved_by_evolver(table):
     """Two canonical points of the shipped table solved again with its recorded settings."""
-    from capbridge.generator.triplet_evolver import evolver_triplet
+    from capbridge.solvers.triplet_evolver import evolver_triplet
 
     plan = EvolverPlan(**json.loads(table.attrs["evolver_settings"]))
     pts = [dict(d12=0.0, d13=0.1, d23=0.2, theta=60.0, v=1.25),

@@ -1,4 +1,4 @@
-"""Tests of capbridge.dem_plugin.vtk_output: bridge and cluster files for ParaView.
+"""Tests of capbridge.dem.vtk_output: bridge and cluster files for ParaView.
 
 Round trips are exact (floats written as shortest round-trip reprs); VTK's own readers
 (Debian's python3-vtk9, installed by the Makefile's set-up, or PyPI's vtk) must load the
@@ -12,7 +12,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin.vtk_output import (BridgeVTKRecorder, read_vtk, write_bridges,
+from capbridge.dem.vtk_output import (BridgeVTKRecorder, read_vtk, write_bridges,
                                              write_clusters)
 from capbridge.status import Status
 from capbridge.validation import CapbridgeInputError

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
-from capbridge.dem_plugin.bridges import default_table_path
+from capbridge.yade import yade_runtime as yr
+from capbridge.dem.bridges import default_table_path
 from capbridge.status import Status
 
 SCENES = Path(__file__).parent / "yade_scenes"
@@ -100,7 +100,7 @@ def test_pull_apart_force_is_the_lookup(sur, tmp_path, backend, r2, theta, vstar
 def suction_files(tmp_path_factory):
     """capbridge's exact-solver export for equal spheres, theta = 0 and 30 deg (the other
     nine ratio files are bridge-free placeholders: the scene only has ratio 1)."""
-    from capbridge.dem_plugin import yade_export as ye
+    from capbridge.yade import yade_export as ye
 
     d = tmp_path_factory.mktemp("suction_export")
     suctions = np.array([0.0, 0.5, 1.0, 2.0, 5.0])
@@ -117,7 +117,7 @@ def test_native_law2_with_capbridge_export(sur, suction_files, theta):
     ``engine.suction_law2``) at a tabulated suction, off the gap grid: the force equals
     capbridge's exact suction solution and capbridge's volume-controlled lookup at the
     volume YADE reports, within 0.5 %; nothing past rupture."""
-    from capbridge.generator import young_laplace as yl
+    from capbridge.solvers import young_laplace as yl
 
     d, suctions = suction_files
     s_star, r = suctions[2], 1e-3

@@ -2,7 +2,7 @@
 
 Every keyword of the constructor: type, range and which go together, one line naming
 the keyword and what is allowed (``CapbridgeInputError``), before any step.  Most checks
-are pure (:mod:`capbridge.dem_plugin.engine_options`) and run here without YADE; two
+are pure (:mod:`capbridge.yade.engine_options`) and run here without YADE; two
 YADE scenes (``tests/yade_scenes/options_capbridge.py``, ``erase_capbridge.py``) check
 that a bad keyword stops a real scene at construction, before ``O.run``, and that an
 engine whose wet grains were all erased idles (no force, ledger exact, save/load) and
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 from capbridge.validation import CapbridgeInputError, interval_text
 
 SCENES = Path(__file__).parent / "yade_scenes"
@@ -32,7 +32,7 @@ OK = {"theta": 20.0, "water_content": 0.01}
 
 
 def _engine(**kw):
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade.engine import CapbridgeEngine
 
     args = dict(OK)
     if any(k in kw for k in ("bridge_volume", "bridge_volume_star", "liquid_volume",
@@ -165,7 +165,7 @@ def test_label_is_a_python_name(label):
 def test_gravity_vector_is_finite():
     """A NaN gravity vector ended in "index ... out of bounds"; the engine checks the
     NewtonIntegrator's gravity at its first step and whenever it changes."""
-    from capbridge.dem_plugin.engine_options import check_gravity
+    from capbridge.yade.engine_options import check_gravity
 
     for bad in ((0.0, 0.0, math.nan), (math.inf, 0.0, -9.81)):
         with pytest.raises(CapbridgeInputError, match=r"NewtonIntegrator\.gravity=.*finite"):
@@ -259,14 +259,14 @@ def _glass(n=4, r=1e-3, first=0, label="glass"):
 
 @pytest.fixture(scope="module")
 def sur():
-    from capbridge.dem_plugin.bridges import default_table_path
+    from capbridge.dem.bridges import default_table_path
     from capbridge.surrogate.doublet import DoubletSurrogate
 
     return DoubletSurrogate().fit(default_table_path())
 
 
 def _scene_refuses(sur, kw, spheres, walls=(), complete=False, needles=()):
-    from capbridge.dem_plugin.engine_options import check_options, check_scene
+    from capbridge.yade.engine_options import check_options, check_scene
 
     args = dict(OK)
     if any(k in kw for k in ("bridge_volume", "bridge_volume_star", "liquid_volume",
@@ -286,7 +286,7 @@ def test_scene_checks_at_construction(sur):
     """What was an error at the first step is one at construction when the scene
     already holds the grains: angles per material, radius ratios, bridge volume
     against the table's V*, liquid the pores cannot hold, wall partners."""
-    from capbridge.dem_plugin.engine_options import check_options, check_scene
+    from capbridge.yade.engine_options import check_options, check_scene
 
     glass = _glass()
     _scene_refuses(sur, {"theta": {"sand": 20.0}}, glass,
@@ -327,7 +327,7 @@ def test_a_model_without_grains_idles(sur, rule):
     """Every wet grain erased: the model's update, forces and ledger work on zero
     grains (it raised "zero-size array to reduction operation"), and a model of zero
     grains can be made again from its saved state (restart)."""
-    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule
+    from capbridge.dem.bridges import BridgeModel, LiquidRule
 
     n = 6
     pos = np.column_stack([np.arange(n) * 2e-3 * (1 - 1e-4), np.zeros(n), np.zeros(n)])
@@ -360,8 +360,8 @@ def test_a_model_without_grains_idles(sur, rule):
 def test_every_keyword_has_its_rule_and_its_row_in_the_docs():
     """The constructor's keywords, ENGINE_PARAMETERS, check_options and OPTION_RULES
     name the same keywords with the same defaults; the docs' table shows each rule."""
-    from capbridge.dem_plugin.engine import ENGINE_PARAMETERS, CapbridgeEngine
-    from capbridge.dem_plugin.engine_options import OPTION_RULES, check_options
+    from capbridge.yade.engine import ENGINE_PARAMETERS, CapbridgeEngine
+    from capbridge.yade.engine_options import OPTION_RULES, check_options
 
     ctor = {k: p.default for k, p in inspect.signature(CapbridgeEngine).parameters.items()}
     pure = {k: p.default for k, p in inspect.signature(check_options).parameters.items()}

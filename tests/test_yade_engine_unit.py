@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, SceneTable, default_table_path
-from capbridge.dem_plugin.coalescence_detect import (bridge_pairs_on_shared_grains,
+from capbridge.dem.bridges import BridgeModel, LiquidRule, SceneTable, default_table_path
+from capbridge.dem.coalescence_detect import (bridge_pairs_on_shared_grains,
                                                      find_coalescence)
 from capbridge.status import Status
 from capbridge.surrogate.doublet import DoubletSurrogate
@@ -62,7 +62,7 @@ def test_scene_table_off_grid_angle_and_memory(sur):
 def test_scene_table_between_ratios_against_exact_solver(sur):
     """Continuous size distributions: linear between fine ratio nodes of the spline
     across ratio slices, at a common s; against the exact solver within 0.3 % (s >= 0.2)."""
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.solvers.young_laplace import solve_doublet
 
     st = SceneTable(sur, [30.0], [1.0, 1.5], continuous=True)
     assert not st.discrete
@@ -191,7 +191,7 @@ def test_mixed_contact_angles_are_the_exact_solver(sur, radii, thetas):
     (angle of the smaller grain first), within the table's own error (0.35 % max on
     tabulated ratios for d* <= 0.96 d*_rupt; measured here <= 0.03 %), along a
     pull-apart, and not the mean angle's (20-60 % off here)."""
-    from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+    from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
 
     r = np.asarray(radii)
     rs, ratio = r.min(), r.max() / r.min()
@@ -369,8 +369,8 @@ def test_native_volume_files_give_the_lookup(sur, tmp_path, radii, kw, theta):
     """What YADE's Law2 reads from the fixed-volume files (capbridge's emulation of its
     interpolation) is the surrogate's volume-controlled force within 0.2 %, up to the
     rupture distance, and nothing past it."""
-    from capbridge.dem_plugin import yade_export as ye
-    from capbridge.dem_plugin.native_volume import NativeVolumeBridges
+    from capbridge.yade import yade_export as ye
+    from capbridge.yade.native_volume import NativeVolumeBridges
 
     nb = NativeVolumeBridges(tmp_path, theta, radii, gamma=GAMMA, **kw)
     files = ye.read_capillary_files(tmp_path, nb.suffix)
@@ -391,7 +391,7 @@ def test_native_volume_files_give_the_lookup(sur, tmp_path, radii, kw, theta):
 
 
 def test_native_volume_refuses_ratios_between_yade_files(tmp_path):
-    from capbridge.dem_plugin.native_volume import NativeVolumeBridges
+    from capbridge.yade.native_volume import NativeVolumeBridges
 
     with pytest.raises(ValueError, match="not among YADE's file ratios"):
         NativeVolumeBridges(tmp_path, 30.0, [1e-3, 1.3e-3], bridge_volume_star=0.02)

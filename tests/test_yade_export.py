@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_export as ye
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_export as ye
+from capbridge.yade import yade_runtime as yr
 from capbridge.status import Status
 
 SCENES = Path(__file__).parent / "yade_scenes"
@@ -299,7 +299,7 @@ def test_delaunay_single_ratio_needs_padding():
 
 def test_export_from_solver_glue(tmp_path, monkeypatch):
     """The glue with a stand-in solver (same signature and keys as the real one)."""
-    from capbridge.generator import young_laplace
+    from capbridge.solvers import young_laplace
 
     calls = []
 
@@ -572,10 +572,10 @@ def test_capillarity_engine_volume_control(delaunay_dir, table, ratio, j):
 def test_exact_solver_export_loads_in_yade(tmp_path):
     """The real solver's export (equal spheres, placeholders for the other ratios), read
     by both engines at a tabulated suction, agrees with the solver in between the gaps."""
-    from capbridge.generator import young_laplace as yl
+    from capbridge.solvers import young_laplace as yl
 
     if not hasattr(yl, "solve_doublet_suction"):
-        pytest.skip("solve_doublet_suction not in capbridge.generator.young_laplace yet")
+        pytest.skip("solve_doublet_suction not in capbridge.solvers.young_laplace yet")
     theta, suctions = 30.0, np.array([0.0, 0.5, 1.0, 2.0, 5.0])
     with pytest.warns(UserWarning, match="placeholder"):
         tab, _ = ye.export_from_solver(tmp_path, theta, ratios=(1.0,), suctions=suctions,

@@ -29,9 +29,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 from capbridge.status import Status
-from capbridge.dem_plugin.liquid_gravity import (DEFAULT_LIQUID_DENSITY,
+from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY,
                                                  bridge_gravity_forces, relative_correction)
 
 SCENE = Path(__file__).parent / "yade_scenes" / "gravity_capbridge.py"
@@ -274,7 +274,7 @@ def test_unequal_grains_sum_to_the_weight_and_share_by_the_smaller_grain():
 
 
 def test_bad_liquid_density_and_mode_are_one_line_errors():
-    from capbridge.dem_plugin.engine import CapbridgeEngine
+    from capbridge.yade.engine import CapbridgeEngine
     from capbridge.validation import CapbridgeInputError
 
     # the default: water, 1000 kg/m^3 for water_content (as before), 997 for the weight
@@ -321,9 +321,9 @@ def _synthetic_triplet_surrogate():
 def _merged_triplet(sur, R):
     """A merged triplet inside the synthetic table: liquid volume [m^3] (1.6 V_coal of
     two bridges on grain 2) and centres [m] of three grains of radius R."""
-    from capbridge.dem_plugin.triplet_clusters import triangle_centres
-    from capbridge.generator.triplet import find_coalescence as exact_coalescence
-    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.dem.triplet_clusters import triangle_centres
+    from capbridge.solvers.triplet import find_coalescence as exact_coalescence
+    from capbridge.solvers.triplet import triplet_geometry
 
     lo, hi = sur.gaps_[0], sur.gaps_[-1]
     gaps = (lo + 0.25 * (hi - lo), lo + 0.5 * (hi - lo), lo + 0.5 * (hi - lo))
@@ -337,9 +337,9 @@ def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
     (predict_vectors with bond and direction); the same scene rotated by a random
     rotation gives the rotated forces (the frame mapping), and the response sums to
     the liquid's weight within the synthetic table's residual."""
-    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
-    from capbridge.dem_plugin.coalescence_detect import find_coalescence
-    from capbridge.dem_plugin.triplet_clusters import LiquidClusters
+    from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
+    from capbridge.dem.coalescence_detect import find_coalescence
+    from capbridge.dem.triplet_clusters import LiquidClusters
     from capbridge.dimensionless import force_scale
 
     sur = _synthetic_triplet_surrogate()
@@ -390,12 +390,12 @@ def test_yade_triplet_cluster_carries_its_weight(tmp_path):
     the gravity-free run ('off') by the surrogate's response rotated into the scene;
     together they carry the liquid's weight within the table's sum residual."""
     _skip_without_yade()
-    from capbridge.dem_plugin.triplet_clusters import triangle_centres
+    from capbridge.dem.triplet_clusters import triangle_centres
     from capbridge.dimensionless import force_scale
-    from capbridge.generator.triplet import find_coalescence as exact_coalescence
-    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.solvers.triplet import find_coalescence as exact_coalescence
+    from capbridge.solvers.triplet import triplet_geometry
 
-    from capbridge.dem_plugin.triplet_clusters import load_surrogate
+    from capbridge.dem.triplet_clusters import load_surrogate
 
     table = tmp_path / "triplet_gravity_synthetic.nc"
     _synthetic_triplet_table().to_netcdf(table)
@@ -443,8 +443,8 @@ def test_doublet_response_from_a_table_that_has_it():
     import importlib.util
     from types import SimpleNamespace
 
-    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule
-    from capbridge.dem_plugin.liquid_gravity import LiquidGravity
+    from capbridge.dem.bridges import BridgeModel, LiquidRule
+    from capbridge.dem.liquid_gravity import LiquidGravity
     from capbridge.dimensionless import force_scale
     from capbridge.surrogate.doublet import DoubletSurrogate
 
@@ -501,9 +501,9 @@ def test_cluster_above_the_bond_range_keeps_its_weight_shared_equally():
     """A cluster at Bo > BOND_MAX (g x 40 on 1 mm grains): no response there, so the
     liquid's weight drho V g is shared equally by the three grains, counted as a
     fallback (it was dropped)."""
-    from capbridge.dem_plugin.bridges import BridgeModel, LiquidRule, default_table_path
-    from capbridge.dem_plugin.coalescence_detect import find_coalescence
-    from capbridge.dem_plugin.triplet_clusters import LiquidClusters
+    from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
+    from capbridge.dem.coalescence_detect import find_coalescence
+    from capbridge.dem.triplet_clusters import LiquidClusters
     from capbridge.surrogate.doublet import BOND_MAX
 
     sur = _synthetic_triplet_surrogate()

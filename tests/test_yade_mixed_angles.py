@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 from capbridge.status import Status
 
 SCENES = Path(__file__).parent / "yade_scenes"
@@ -22,7 +22,7 @@ pytestmark = [pytest.mark.yade,
 
 
 def test_mixed_angle_pull_apart_is_the_exact_solver():
-    from capbridge.generator.young_laplace import rupture_distance, solve_doublet
+    from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
 
     r1, r2, t1, t2, vstar = 1e-3, 1.25e-3, 0.0, 60.0, 0.05
     res = yr.run_yade_script(SCENES / "pull_apart_capbridge.py", [
@@ -46,8 +46,8 @@ def test_yade_law2_with_a_mixed_angle_export(tmp_path):
     """Where YADE's format allows it (every bridge of the scene joins the two
     materials): capbridge's export for (0, 60) deg read by YADE's compiled Law2 gives
     the exact suction solution for that pair within 0.5 %, nothing past rupture."""
-    from capbridge.dem_plugin import yade_export as ye
-    from capbridge.generator import young_laplace as yl
+    from capbridge.yade import yade_export as ye
+    from capbridge.solvers import young_laplace as yl
 
     t1, t2, r = 0.0, 60.0, 1e-3
     suctions = np.array([0.0, 0.5, 1.0, 2.0, 5.0])

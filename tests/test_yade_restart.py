@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 
 SCENES = Path(__file__).parent / "yade_scenes"
 _YADE = yr.find_yade()

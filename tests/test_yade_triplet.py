@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 from capbridge.dimensionless import force_scale
 from capbridge.status import HAS_RESULT
-from capbridge.dem_plugin.triplet_clusters import load_surrogate
+from capbridge.dem.triplet_clusters import load_surrogate
 from capbridge.surrogate.triplet import default_table
 
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_capbridge.py"
@@ -75,7 +75,7 @@ def _run(sur, v, triplet_forces="on", steps=(150, 20, 100, 10), extra=()):
 
 
 def test_triplet_forces_then_split_in_yade(sur):
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.solvers.young_laplace import solve_doublet
 
     res, vb = _run(sur, 1.15)
     rows = res["rows"]

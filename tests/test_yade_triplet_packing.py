@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
+from capbridge.yade import yade_runtime as yr
 from capbridge.surrogate.triplet import default_table
 
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_packing.py"

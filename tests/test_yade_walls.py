@@ -28,11 +28,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from capbridge.dem_plugin import yade_runtime as yr
-from capbridge.dem_plugin.periodic import PeriodicCell
-from capbridge.dem_plugin.vtk_output import read_vtk
-from capbridge.dem_plugin.wall_bridges import _closest_on_triangles
-from capbridge.generator.sphere_wall import solve_sphere_wall
+from capbridge.yade import yade_runtime as yr
+from capbridge.dem.periodic import PeriodicCell
+from capbridge.dem.vtk_output import read_vtk
+from capbridge.dem.wall_bridges import _closest_on_triangles
+from capbridge.solvers.sphere_wall import solve_sphere_wall
 
 SCENES = Path(__file__).parent / "yade_scenes"
 _YADE = yr.find_yade()

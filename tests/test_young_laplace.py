@@ -1,4 +1,4 @@
-"""Tests of the exact doublet solver capbridge.generator.young_laplace.
+"""Tests of the exact doublet solver capbridge.solvers.young_laplace.
 
 Every tolerance below is the size of an error that is known (and stated where it is
 used): round-off of the solver, or the published error of an approximation.
@@ -8,13 +8,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from capbridge.generator import young_laplace as yl
-from capbridge.generator.young_laplace import (SolverSettings, bridge_shape,
+from capbridge.solvers import young_laplace as yl
+from capbridge.solvers.young_laplace import (SolverSettings, bridge_shape,
                                                rupture_distance, solve_doublet,
                                                solve_doublet_suction,
                                                suction_rupture_distance)
 from capbridge.status import Status
-from capbridge.surrogate.closed_forms import (lian_rupture_distance,
+from capbridge.physics.closed_forms import (lian_rupture_distance,
                                               pitois_cylindrical_force, richefeu_force,
                                               willett_numeric_force,
                                               willett_rupture_distance)

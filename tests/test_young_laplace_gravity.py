@@ -1,4 +1,4 @@
-"""Tests of the vertical doublet with gravity (capbridge.generator.young_laplace_gravity).
+"""Tests of the vertical doublet with gravity (capbridge.solvers.young_laplace_gravity).
 
 Tolerances: the meridian is integrated to rtol 1e-12 and Newton stops at residuals of
 1e-11, so quantities of the solution carry errors of ~1e-10; each check states which
@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from capbridge.generator.young_laplace import rupture_distance, solve_doublet
-from capbridge.generator.young_laplace_gravity import (BOND_MAX, GravitySettings,
+from capbridge.solvers.young_laplace import rupture_distance, solve_doublet
+from capbridge.solvers.young_laplace_gravity import (BOND_MAX, GravitySettings,
                                                        rupture_distance_gravity,
                                                        solve_doublet_gravity)
 from capbridge.status import Status

@@ -14,14 +14,15 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import make_interp_spline
 
+from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
-from capbridge.surrogate.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
+from capbridge.physics.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
                                          gravity_vector, liquid_weight)
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
 
 VARIABLES = ("force", "pressure", "beta1", "beta2")
-#: the table's response to gravity on the liquid (:mod:`capbridge.generator.doublet_gravity`):
+#: the table's response to gravity on the liquid (:mod:`capbridge.tables.doublet_gravity`):
 #: first-order share of the weight on grain 1 with gravity along the axis, and the second
 #: derivative of the attraction in the axial component b_n of b = Bo g_hat
 GRAVITY_VARIABLES = ("weight_share_axial", "force_gravity_curvature_axial")
@@ -96,7 +97,7 @@ def si_bond(radius, surface_tension, density_difference, gravity):
 _RUPTURE_EXPONENT = 1.0 / 3.0
 
 
-def _refine_axis(values, axis, coarse, fine):
+def refine_axis(values, axis, coarse, fine):
     """Cubic-spline ``values`` along ``axis`` from the ``coarse`` to the ``fine`` nodes."""
     if len(coarse) < 4:
         k = len(coarse) - 1
@@ -162,11 +163,11 @@ class DoubletSurrogate:
     def fit(self, table):
         """Load and validate a table (path or Dataset); refinement is done lazily.
 
-        The table is checked (:func:`~capbridge.generator.doublet_table.validate_doublet_table`:
+        The table is checked (:func:`~capbridge.tables.doublet.validate_doublet_table`:
         axes, units, checksum, physical bounds) and so are this surrogate's
         refinement settings against those of the table's error model.
         """
-        from capbridge.generator.doublet_table import validate_doublet_table
+        from capbridge.tables.doublet import validate_doublet_table
 
         if isinstance(table, xr.Dataset):
             ds = validate_doublet_table(table, "doublet table (Dataset)")
@@ -192,7 +193,7 @@ class DoubletSurrogate:
         self._fine = {}
         self._ratio_basis = None
         self.holdout_ = {k: v for k, v in ds.attrs.items() if k.startswith("holdout_")}
-        self.gravity_bond_max_ = _validated_axial_bond(ds.attrs)
+        self.gravity_bond_max_ = validated_axial_bond(ds.attrs)
         self._gravity_cache = {}            # the gravity layers, prepared at first use
         return self
 
@@ -219,10 +220,10 @@ class DoubletSurrogate:
                     f"unconverged points (first at index {tuple(bad)}); regenerate the table "
                     "or restrict the lookup range")
             lv = np.log(self.volume_)
-            fine = _refine_axis(vals, 0, self.theta_, self.theta_axis_.nodes)
-            fine = _refine_axis(fine, 1, lv, self.logv_axis_.nodes)
+            fine = refine_axis(vals, 0, self.theta_, self.theta_axis_.nodes)
+            fine = refine_axis(fine, 1, lv, self.logv_axis_.nodes)
             if fine.ndim == 3:
-                fine = _refine_axis(fine, 2, self.s_, self.s_axis_.nodes)
+                fine = refine_axis(fine, 2, self.s_, self.s_axis_.nodes)
             self._fine[key] = np.ascontiguousarray(fine)
         return self._fine[key]
 
@@ -317,7 +318,7 @@ class DoubletSurrogate:
         on grain 1 and 2, ``bond`` and ``rupture_gap`` with gravity; ``force`` stays
         the zero-gravity attraction [N].
 
-        >>> sur = DoubletSurrogate().fit(_default_table())
+        >>> sur = DoubletSurrogate().fit(default_table())
         >>> f = sur.predict_si(1e-3, 1e-3, 0.072, 0.0, 1e-12, 0.0)["force"]
         >>> round(float(f / (2 * np.pi * 0.072 * 1e-3)), 2)  # V* = 1e-3 at contact: near cos(0)
         0.94
@@ -384,7 +385,7 @@ class DoubletSurrogate:
         """Force vectors on both grains, with gravity on the liquid.
 
         Frame: grain 1 (radius 1, the smaller) at the origin, grain 2 on +x (the
-        convention of :mod:`capbridge.generator.young_laplace_gravity`); n = (1, 0, 0).
+        convention of :mod:`capbridge.solvers.young_laplace_gravity`); n = (1, 0, 0).
 
         Parameters
         ----------
@@ -401,7 +402,7 @@ class DoubletSurrogate:
         -------
         dict
             ``F1``, ``F2`` (..., 3): forces on grain 1 and 2 [F*], from
-            :func:`~capbridge.surrogate.gravity.doublet_gravity_forces`,
+            :func:`~capbridge.physics.gravity.doublet_gravity_forces`,
 
                 F1 = F0 n + W [w b_n n + u b_perp] + c b_n^2 n / 2,
                 F2 = -F0 n - c b_n^2 n / 2 + W [(1 - w) b_n n + (1 - u) b_perp],
@@ -702,7 +703,7 @@ class DoubletSurrogate:
 
 def _axis_name(dim):
     """The table axis a dimension of a gravity variable samples: the sub-grids of
-    :mod:`capbridge.generator.doublet_gravity` are named ``gravity_theta``,
+    :mod:`capbridge.tables.doublet_gravity` are named ``gravity_theta``,
     ``rupture_volume``, ... (nodes of the table's own axes)."""
     for prefix in ("gravity_", "rupture_"):
         if dim.startswith(prefix) and dim[len(prefix):] in ("ratio", "theta", "volume", "s",
@@ -730,7 +731,7 @@ def _transverse_unvalidated(b_perp, ratio, gap, rupture_gap):
                & (b_perp > TRANSVERSE_BOND_NEAR * (1 + 1e-12))))
 
 
-def _validated_axial_bond(attrs):
+def validated_axial_bond(attrs):
     """Largest Bo of the table's held-out check with gravity (``gravity_holdout_*``) up to
     which the lookups the table calls converged stay within ``gravity_response_rtol`` of
     the attraction (at that Bo and every smaller one); BOND_MAX for a table without the
@@ -823,14 +824,14 @@ def _trilinear(grid, i, fi, j, fj, k, fk):
     return plane(i) * (1 - fi) + plane(i + 1) * fi
 
 
-def _default_table():
+def default_table():
     from pathlib import Path
 
-    return Path(__file__).resolve().parents[2] / "data" / "doublet_table.nc"
+    return DATA_DIR / "doublet_table.nc"
 
 
 def _open(path):
-    from capbridge.generator.netcdf_io import read_table
+    from capbridge.tables.netcdf_io import read_table
 
     return read_table(path)
 
@@ -847,7 +848,7 @@ def gravity_holdout_errors(surrogate, n=12, seed=2, bonds=GRAVITY_HOLDOUT_BONDS,
     s in [``exclude_band``, 1] and over the table's ratios (the i-th point takes ratio
     i mod the number of ratios: ratio 1 and unequal grains both); each at every Bo of
     ``bonds`` with gravity pulling from grain 1 to grain 2 and back
-    (:func:`~capbridge.generator.young_laplace_gravity.solve_doublet_gravity`, the exact
+    (:func:`~capbridge.solvers.young_laplace_gravity.solve_doublet_gravity`, the exact
     axisymmetric solution, is the direct solve).  The error of a point is the largest
     over the two grains of |F_surrogate - F_exact| relative to the exact attraction at
     Bo = 0; ``effect`` errors compare the gravity parts only (F(b) - F(0) of each), so
@@ -868,7 +869,7 @@ def gravity_holdout_errors(surrogate, n=12, seed=2, bonds=GRAVITY_HOLDOUT_BONDS,
         check, lookups above its validated Bo are APPROXIMATE, so the CONVERGED set
         differs from the one the table was checked with.
     """
-    from capbridge.generator.young_laplace_gravity import solve_doublet_gravity
+    from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity
 
     ds = surrogate.table_
     rng = np.random.default_rng(seed)
@@ -950,7 +951,7 @@ def holdout_errors(surrogate, n=400, seed=0, ratio=1.0, exclude_band=0.0):
     the points, both forces and the median and max relative error over the points the
     exact solver converged on.
     """
-    from capbridge.generator.young_laplace import solve_doublet
+    from capbridge.solvers.young_laplace import solve_doublet
 
     rng = np.random.default_rng(seed)
     th = rng.uniform(surrogate.theta_[0], surrogate.theta_[-1], n)

@@ -2,7 +2,7 @@
 
 One liquid body wetting three equal spheres (radius r; lengths / r, V* = V/r^3,
 F* = F/(2 pi gamma r), P* = dp r/gamma, E* = E/(gamma r^2), angles in degrees) is
-tabulated by :mod:`capbridge.generator.triplet_table` on a full cube of the three gaps
+tabulated by :mod:`capbridge.tables.triplet` on a full cube of the three gaps
 (d12, d13, d23), the contact angle theta and the volume ratio v = V*/V*_coal, where
 V*_coal(d12, d13, d23, theta) is the exact coalescence volume of the two bridges on the
 grain shared by the two smallest gaps.  :class:`TripletSurrogate` follows
@@ -86,10 +86,11 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import make_interp_spline
 
+from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
-                                         _refine_axis, si_bond)
-from capbridge.surrogate.gravity import check_bond, gravity_vector, liquid_weight
+                                         refine_axis, si_bond)
+from capbridge.physics.gravity import check_bond, gravity_vector, liquid_weight
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
 
@@ -134,7 +135,7 @@ def default_table():
     """``data/triplet_table.nc`` of this checkout."""
     from pathlib import Path
 
-    return Path(__file__).resolve().parents[2] / "data" / "triplet_table.nc"
+    return DATA_DIR / "triplet_table.nc"
 
 
 # --------------------------------------------------------------------------------------
@@ -207,7 +208,7 @@ def _refine(values, axes, fine_axes, method):
             if _degree(method, a) == 1:
                 out = make_interp_spline(c, out, k=1, axis=a)(f.nodes)
             else:
-                out = _refine_axis(out, a, c, f.nodes)
+                out = refine_axis(out, a, c, f.nodes)
     return np.ascontiguousarray(out)
 
 
@@ -470,10 +471,10 @@ class TripletSurrogate:
         Parameters
         ----------
         table : path or xarray.Dataset
-            A triplet table (:mod:`capbridge.generator.triplet_table`).
+            A triplet table (:mod:`capbridge.tables.triplet`).
         coalescence_table : path or xarray.Dataset, optional
             The exact coalescence volumes over the geometry
-            (:mod:`capbridge.generator.triplet_coalescence`: ``V_coal_pair``, ``V0_pair``,
+            (:mod:`capbridge.tables.coalescence`: ``V_coal_pair``, ``V0_pair``,
             ``dV_pair``).  If given, V*_coal between the triplet table's nodes follows
             its smooth V_coal_pair at the sorted gaps (the triplet table's own values
             are kept at its nodes), and V0, dV are its linear law; otherwise V*_coal
@@ -559,7 +560,7 @@ class TripletSurrogate:
 
     @staticmethod
     def _load(table):
-        from capbridge.generator.netcdf_io import TableError, read_table, validate_table
+        from capbridge.tables.netcdf_io import TableError, read_table, validate_table
 
         if isinstance(table, xr.Dataset):
             ds, src = validate_table(table, "triplet table (Dataset)"), "triplet table"
@@ -600,7 +601,7 @@ class TripletSurrogate:
                 if "energy_separated" in ds else None
         src = separated_energy
         if not isinstance(src, (xr.Dataset, xr.DataArray)):
-            from capbridge.generator.netcdf_io import read_table
+            from capbridge.tables.netcdf_io import read_table
             src = read_table(src)
         if isinstance(src, xr.Dataset):
             src = src["energy_separated"]
@@ -640,14 +641,14 @@ class TripletSurrogate:
         keeps the triplet table's own values at its nodes.  The kinks then lie on the
         planes of equal gaps, which the fine grid's simplices never cross.  V0, dV: the
         coalescence table's linear law at the sorted gaps."""
-        from capbridge.generator.netcdf_io import read_table
+        from capbridge.tables.netcdf_io import read_table
 
         dc = table if isinstance(table, xr.Dataset) else read_table(table)
         src = "coalescence table" if isinstance(table, xr.Dataset) else str(table)
         for n in ("V_coal_pair", "V0_pair", "dV_pair"):
             if n not in dc:
                 raise CapbridgeInputError(f"{src} has no {n}: not a coalescence table "
-                                          "(capbridge.generator.triplet_coalescence)")
+                                          "(capbridge.tables.coalescence)")
         g = np.asarray(dc["d12"].values, float)
         t = np.asarray(dc["theta"].values, float)
         if g[0] > self.gaps_[0] + 1e-12 or g[-1] < self.gaps_[-1] - 1e-12 or \
@@ -668,7 +669,7 @@ class TripletSurrogate:
             axes = [(g, gaps_axis)] * 3 + ([] if theta_axis is None else [(t, theta_axis)])
             Wt = values
             for a, (c, x) in enumerate(axes):
-                Wt = _refine_axis(Wt, a, c, x) if method == "cubic" else \
+                Wt = refine_axis(Wt, a, c, x) if method == "cubic" else \
                     make_interp_spline(c, Wt, k=1, axis=a)(x)
             n = gaps_axis.size
             I = np.sort(np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1), -1)
@@ -712,7 +713,7 @@ class TripletSurrogate:
             y = vals
             for a, (c, x) in enumerate(zip(coarse, pts)):
                 y = _linear_at(y, c, x.flat[n]) if _degree(self.method, a) == 1 \
-                    else _refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
+                    else refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
 
@@ -924,7 +925,7 @@ class TripletSurrogate:
         """The table's response to gravity (if any) and its held-out validation.
 
         ``force_gravity_gradient`` G and ``force_gravity_curvature`` C (table frame of
-        each node, :mod:`capbridge.generator.triplet_gravity`) are divided by the
+        each node, :mod:`capbridge.tables.triplet_gravity`) are divided by the
         node's liquid weight W_node = v V*_coal / (2 pi) and interpolated multilinearly
         on the raw (d12, d13, d23, theta, gravity_v) grid (the simplex kernel is 2.6x
         faster but its held-out error is 15 % larger at Bo = 1); a lookup multiplies them by
@@ -1060,7 +1061,7 @@ class TripletSurrogate:
 
                 F_i(b) = F_i(0) + Q (G_i b_t + C_i b_t^2 / 2),   b_t = Q^T b
 
-            (:func:`~capbridge.surrogate.gravity.triplet_gravity_forces`, G and C the
+            (:func:`~capbridge.physics.gravity.triplet_gravity_forces`, G and C the
             table's response interpolated on (gaps, theta, v)); ``forces`` then sum to
             V*/(2 pi) b (the liquid's weight) up to ``gravity_sum_residual`` (relative,
             the largest of the cell's nodes) and the second-order terms.  Extra keys:
@@ -1318,7 +1319,7 @@ def _combine_status(a, b):
 def table_frame(centres):
     """Rotation Q (..., 3, 3) from the table frame of a triplet to the caller's frame.
 
-    The table frame (:func:`capbridge.generator.triplet.triplet_geometry`) has grains 2
+    The table frame (:func:`capbridge.solvers.triplet.triplet_geometry`) has grains 2
     and 3 on the x axis (grain 3 at +x), grain 1 at z > 0 and the centres in the plane
     y = 0.  The columns of Q are its axes in the caller's frame:
 
@@ -1332,7 +1333,7 @@ def table_frame(centres):
     centres : array_like (..., 3, 3)
         Centres of grains 1, 2, 3 (rows) in the caller's frame (any unit).
 
-    >>> from capbridge.generator.triplet import triplet_geometry
+    >>> from capbridge.solvers.triplet import triplet_geometry
     >>> np.allclose(table_frame(triplet_geometry(0.1, 0.05, 0.2).centres), np.eye(3))
     True
     """
@@ -1380,7 +1381,7 @@ def gravity_holdout_errors(surrogate, table=None):
         ``threshold``, ``threshold_source``, ``bond_max_validated``, ``n_cases``,
         ``n_cases_used``.
     """
-    from capbridge.generator.triplet import triplet_geometry
+    from capbridge.solvers.triplet import triplet_geometry
 
     ds = surrogate.table_ if table is None else table
     h = {k: np.asarray(ds[f"gravity_holdout_{k}"].values) for k in

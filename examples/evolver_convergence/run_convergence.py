@@ -46,11 +46,11 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import triplet_centres
-from capbridge.generator.evolver import Settings, doublet_problem, make_problem, minimise
-from capbridge.generator.evolver.minimise import _richardson_array
-from capbridge.generator.evolver.protocols import (forward_difference_force, paper_stretch,
+from capbridge.solvers.evolver import Settings, doublet_problem, make_problem, minimise
+from capbridge.solvers.evolver.minimise import _richardson_array
+from capbridge.solvers.evolver.protocols import (forward_difference_force, paper_stretch,
                                                   reported_component)
-from capbridge.generator.young_laplace import solve_doublet
+from capbridge.solvers.young_laplace import solve_doublet
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CACHE = os.path.join(HERE, "cache.json")

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from capbridge.generator.triplet import triplet_geometry
+from capbridge.solvers.triplet import triplet_geometry
 from capbridge.status import status_name
 from capbridge.surrogate.triplet import TripletSurrogate
 

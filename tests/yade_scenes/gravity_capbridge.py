@@ -23,14 +23,14 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import utils  # noqa: E402
 from yade.minieigenHP import Vector3  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine, get_engine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine, get_engine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--radius", type=float, default=4e-3)

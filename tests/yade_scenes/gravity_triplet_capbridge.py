@@ -15,14 +15,14 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import utils  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
-from capbridge.dem_plugin.triplet_clusters import triangle_centres  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
+from capbridge.dem.triplet_clusters import triangle_centres  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--table", required=True)

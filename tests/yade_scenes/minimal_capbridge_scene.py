@@ -1,10 +1,10 @@
 """Wet granular pile: 200 glass beads settle in a box with capillary bridges (capbridge)."""
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 yade_runtime.ensure_yade_importable()           # nothing to do under the yade launcher
 from yade import *
 from yade import pack, utils
 
-from capbridge.dem_plugin.engine import CapbridgeEngine
+from capbridge.yade.engine import CapbridgeEngine
 
 box = ((0, 0, 0), (0.012, 0.012, 0.02))         # [m]
 sp = pack.SpherePack()

@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -28,7 +28,7 @@ from yade.utils import *  # noqa: E402,F401,F403
 import yade  # noqa: E402,F401
 from yade import _utils  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--n", type=int, default=300)
@@ -62,7 +62,7 @@ elif cfg.rule == "fixed":
     cap = CapbridgeEngine(theta={"glass": 20.0}, gamma=0.073, bridge_volume_star=cfg.vstar,
                           initial_wet_gap=0.1 * R, coalescence_every=500, label="pack")
 if cfg.rule == "native":
-    from capbridge.dem_plugin.native_volume import NativeVolumeBridges  # noqa: E402
+    from capbridge.yade.native_volume import NativeVolumeBridges  # noqa: E402
 
     radii = [O.bodies[i].shape.radius for i in ids]
     nb = NativeVolumeBridges(cfg.dir, 20.0, radii, bridge_volume_star=cfg.vstar, gamma=0.073)

@@ -18,15 +18,15 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import utils  # noqa: E402
 from yade.minieigenHP import Matrix3, Vector3  # noqa: E402
 
-from capbridge.dem_plugin.bridges import SceneTable, default_table_path  # noqa: E402
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.dem.bridges import SceneTable, default_table_path  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--theta", type=float, default=30.0)

@@ -6,7 +6,7 @@
 
 ``--backend python`` (default): :class:`CapbridgeEngine` (a PyRunner).  ``--backend
 native``: YADE's compiled Law2 on the fixed-volume files of
-:class:`capbridge.dem_plugin.native_volume.NativeVolumeBridges` written to DIR.
+:class:`capbridge.yade.native_volume.NativeVolumeBridges` written to DIR.
 
 Sphere 0 is fixed at the origin; sphere 1 (fixed too, i.e. driven) starts touching it
 and moves away at constant velocity along a skew direction, so that the gap goes from 0
@@ -20,7 +20,7 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -28,7 +28,7 @@ from yade import utils  # noqa: E402
 from yade.utils import *  # noqa: E402,F401,F403
 import yade  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--r1", type=float, default=1e-3)
@@ -56,7 +56,7 @@ if cfg.backend == "python":
     ip2, law, cap_engine = (Ip2_FrictMat_FrictMat_FrictPhys(), Law2_ScGeom_FrictPhys_CundallStrack(),
                             cap.pyrunner())
 else:
-    from capbridge.dem_plugin.native_volume import NativeVolumeBridges  # noqa: E402
+    from capbridge.yade.native_volume import NativeVolumeBridges  # noqa: E402
 
     cap = NativeVolumeBridges(cfg.dir, cfg.theta, [cfg.r1, cfg.r2], bridge_volume_star=cfg.vstar,
                               gamma=cfg.gamma)
@@ -65,7 +65,7 @@ else:
     cap_engine = cap.law2()
     cap_engine.createDistantMeniscii = True          # wet the touching pair at step 1
 # the rupture gap this bridge will have (same table, same lookup)
-from capbridge.dem_plugin.bridges import SceneTable, default_table_path  # noqa: E402
+from capbridge.dem.bridges import SceneTable, default_table_path  # noqa: E402
 
 t_small, t_large = cfg.theta, cfg.theta if cfg.theta2 is None else cfg.theta2
 if cfg.r2 < cfg.r1:

@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -52,7 +52,7 @@ def kick():
 
 
 def record(n, cap_label):
-    from capbridge.dem_plugin.engine import get_engine
+    from capbridge.yade.engine import get_engine
 
     kick()
     rows = []
@@ -75,11 +75,11 @@ if cfg.mode == "load":
     perm_id = ids[0]
     O.forces.setPermF(perm_id, PERM)
     rows = record(cfg.record, "pile")
-    from capbridge.dem_plugin.engine import get_engine
+    from capbridge.yade.engine import get_engine
     yade_runtime.emit_result({"rows": rows, "messages": get_engine("pile").messages})
     sys.exit(0)
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 box = ((0, 0, 0), (0.008, 0.008, 0.014))
 sp = pack.SpherePack()

@@ -3,7 +3,7 @@
     python suction_native_capbridge.py --dir DIR --theta 30 --r 1e-3 --suction 73 \
         --gamma 0.073 --gaps=0,1e-5,...
 
-``capbridge.dem_plugin.engine.suction_law2`` builds ``Law2_ScGeom_CapillaryPhys_Capillarity``
+``capbridge.yade.engine.suction_law2`` builds ``Law2_ScGeom_CapillaryPhys_Capillarity``
 on capbridge's exported ``M(r=...)`` files in DIR (suffix for theta).  The spheres are
 fixed; for every gap [m] they are placed, one step is run, and the force on sphere 0
 (positive: attraction) and the bridge YADE holds are read back.  Prints one JSON line.
@@ -11,7 +11,7 @@ fixed; for every gap [m] they are placed, one step is run, and the force on sphe
 import argparse
 import sys
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -19,7 +19,7 @@ from yade import utils  # noqa: E402
 from yade.utils import *  # noqa: E402,F401,F403
 import yade  # noqa: E402
 
-from capbridge.dem_plugin.engine import suction_law2  # noqa: E402
+from capbridge.yade.engine import suction_law2  # noqa: E402
 
 
 cli = argparse.ArgumentParser()

@@ -17,14 +17,14 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import pack, utils  # noqa: E402
 import yade  # noqa: E402,F401
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--n", type=int, default=300)

@@ -1,6 +1,6 @@
 """Two fixed spheres under YADE's Law2_ScGeom_CapillaryPhys_Capillarity, fed with M(r=...) files.
 
-Run either way (see capbridge.dem_plugin.yade_runtime; capbridge must be importable,
+Run either way (see capbridge.yade.yade_runtime; capbridge must be importable,
 e.g. PYTHONPATH=<project root>, which run_yade_script sets):
     python two_spheres_law2.py  --dir DIR --suffix _theta0 --r1 1e-3 --r2 2e-3 \
         --suction 100 --gamma 0.073 --gaps=0,1e-5,2e-4
@@ -15,7 +15,7 @@ import argparse
 import os
 import sys
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -44,7 +44,7 @@ cap = Law2_ScGeom_CapillaryPhys_Capillarity(capillaryPressure=cfg.suction, surfa
                                             label="cap")
 b0, b1 = yade_runtime.two_fixed_spheres(cfg.r1, cfg.r2, cfg.gaps[0], ip2, law, cap)
 
-from capbridge.dem_plugin import yade_export  # noqa: E402
+from capbridge.yade import yade_export  # noqa: E402
 
 files = yade_export.read_capillary_files(".", cfg.suffix)
 rows = []

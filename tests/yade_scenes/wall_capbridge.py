@@ -31,7 +31,7 @@ import sys
 
 import numpy as np
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
@@ -39,8 +39,8 @@ from yade import utils  # noqa: E402
 import yade  # noqa: E402
 from yade.minieigenHP import Quaternion, Vector3  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
-from capbridge.generator.sphere_wall import sphere_wall_rupture_distance  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
+from capbridge.solvers.sphere_wall import sphere_wall_rupture_distance  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--theta-s", type=float, default=20.0)

@@ -15,13 +15,13 @@ import math
 import sys
 import time
 
-from capbridge.dem_plugin import yade_runtime
+from capbridge.yade import yade_runtime
 
 yade_runtime.ensure_yade_importable()
 from yade import *  # noqa: E402,F401,F403
 from yade import pack, utils  # noqa: E402
 
-from capbridge.dem_plugin.engine import CapbridgeEngine  # noqa: E402
+from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 cli = argparse.ArgumentParser()
 cli.add_argument("--n", type=int, default=2000)

@@ -1,0 +1,1085 @@
+"""Volume-controlled liquid bridges between spheres, in plain numpy (no YADE here).
+
+:class:`SceneTable` cuts, out of capbridge's doublet table, only what one DEM scene
+needs: the contact angles of its materials and the radius ratios of its grain pairs,
+refined exactly as :class:`capbridge.surrogate.doublet.DoubletSurrogate` refines them
+(cubic splines along theta, log ratio, log V* and s = sqrt(1 - d*/d*_rupt), evaluated on
+the surrogate's own fine nodes), so that a lookup gives the surrogate's number to
+round-off.  Because a bridge keeps its volume, everything but the gap is fixed when the
+bridge forms (its volume cell, its rupture gap, its contact angle and ratio): a step
+costs a square root and four gathers per bridge.
+
+:class:`BridgeModel` holds the bridges of a packing: it forms them at contact with the
+volume given by the liquid rule (:class:`LiquidRule`), keeps the volume, ruptures them
+beyond the table's rupture gap, lets them re-form at a later contact, and sums the
+bridge forces, equal and opposite along the centre line, on the grains.  It keeps a
+ledger of the liquid (every formation and rupture, and the liquid held on grains for the
+conserving rule) so that the total is accounted for at every step.
+
+Conventions (capbridge's): lengths over the *smaller* radius of the pair r,
+ratio = R/r >= 1, V* = V/r^3, F* = F/(2 pi gamma r), attraction > 0, angles in degrees.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from capbridge.dimensionless import force_scale
+from capbridge.status import Status
+
+__all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
+           "distinct_values", "balance_error"]
+
+
+#: The band s = sqrt(1 - d*/d*_rupt) >= ERROR_BAND of the doublet table's held-out error:
+#: a bridge's relative gravity correction is taken at its smallest attraction in that band.
+ERROR_BAND = 0.2
+
+def default_table_path():
+    """The shipped doublet table, ``<project>/data/doublet_table.nc``."""
+    from capbridge.surrogate.doublet import default_table
+
+    return default_table()
+
+
+def balance_error(got, expected, scale):
+    """Relative error of a liquid ledger: |got - expected| relative to the liquid
+    expected, or, when (to round-off) none is expected any more (every bridge ruptured,
+    every wet grain erased), to ``scale``, the liquid the ledger handled [m^3]."""
+    denom = abs(expected) if abs(expected) > 1e-9 * abs(scale) else abs(scale)
+    return abs(got - expected) / max(denom, 1e-300)
+
+
+def distinct_values(x, rtol=1e-9):
+    """Sorted distinct values of ``x`` (values within ``rtol`` of each other merged)."""
+    x = np.sort(np.asarray(x, float).ravel())
+    if x.size == 0:
+        return x
+    keep = np.concatenate([[True], np.diff(x) > rtol * np.abs(x[1:])])
+    return x[keep]
+
+
+def _stack(parts, shape):
+    """The slices ``parts`` stacked into ``shape`` (no slice: an empty grid, for a scene
+    whose wet grains were all erased)."""
+    return np.concatenate(parts).reshape(shape) if parts else np.empty(shape)
+
+
+# ------------------------------------------------------------------------------------
+# The table cut for one scene
+# ------------------------------------------------------------------------------------
+
+
+class SceneTable:
+    """Fine lookup grids for the contact angles and radius ratios of one scene.
+
+    Parameters
+    ----------
+    table : path of a capbridge doublet table, an ``xarray.Dataset``, or a fitted
+        :class:`~capbridge.surrogate.doublet.DoubletSurrogate` (its ``refine`` sets the
+        fine grid; default ``DoubletSurrogate()``'s).
+    thetas : contact angles [deg] the scene uses (one grid stack each).
+    ratios : the radius ratios R/r >= 1 of the scene's pairs.  With at most
+        ``max_discrete`` distinct values (mono-, bi-, tridisperse packings) every one
+        gets its own exact grid and a lookup never interpolates in ratio.  Otherwise, or
+        with ``continuous=True`` (continuous size distributions), the range [min, max]
+        gets nodes every ``ratio_step`` and a lookup is linear in ratio between them.
+    variables : what to tabulate besides the rupture gap ("force", "beta1", "beta2",
+        "pressure").
+
+    Only those slices are built: memory is ``len(thetas) * n_ratio_nodes *
+    len(variables) * 145 * 145`` doubles with the default refinement.
+    """
+
+    def __init__(self, table, thetas, ratios=(1.0,), variables=("force",),
+                 ratio_step=0.01, max_discrete=12, continuous=None, theta_pairs=()):
+        from capbridge.surrogate.doublet import DoubletSurrogate
+
+        sur = table if isinstance(table, DoubletSurrogate) else DoubletSurrogate().fit(table)
+        sur._check_fitted()
+        self.surrogate = sur
+        ds = sur.table_
+        self.variables = tuple(dict.fromkeys(variables))
+        for name in self.variables:
+            if name not in ds:
+                raise ValueError(f"the table has no variable {name!r}")
+        self.thetas = distinct_values(thetas)
+        pairs = np.asarray(theta_pairs, float).reshape(-1, 2)
+        pairs = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > 1e-9]
+        self.theta_pairs = np.unique(pairs, axis=0) if pairs.size else np.empty((0, 2))
+        every = np.concatenate([self.thetas, self.theta_pairs.ravel()])
+        if np.any(every < sur.theta_[0] - 1e-9) or np.any(every > sur.theta_[-1] + 1e-9):
+            raise ValueError(f"contact angles {distinct_values(every).tolist()} deg: the table "
+                             f"covers [{sur.theta_[0]:g}, {sur.theta_[-1]:g}] deg")
+        ratios = distinct_values(ratios)
+        if ratios.size == 0:
+            ratios = np.array([1.0])
+        if ratios[0] < 1.0 - 1e-12 or ratios[-1] > sur.ratios_[-1] * (1 + 1e-12):
+            raise ValueError(f"radius ratios [{ratios[0]:g}, {ratios[-1]:g}]: the table "
+                             f"covers [{sur.ratios_[0]:g}, {sur.ratios_[-1]:g}] "
+                             "(ratio = larger / smaller radius)")
+        ratios = np.clip(ratios, 1.0, sur.ratios_[-1])
+        self.discrete = (ratios.size <= max_discrete) if continuous is None else not continuous
+        if self.discrete:
+            self.ratio_nodes = ratios
+        else:
+            lo, hi = ratios[0], ratios[-1]
+            n = max(2, int(math.ceil((hi - lo) / ratio_step)) + 1)
+            self.ratio_nodes = np.linspace(lo, hi, n)
+        self.v_axis = sur.logv_axis_
+        self.s_axis = sur.s_axis_
+        self.vstar_range = (float(sur.volume_[0]), float(sur.volume_[-1]))
+        self._check_status(ds)
+        self.grids = {}
+        # slices: one per equal angle (from the table), then one per mixed pair (exact)
+        n_sl = self.thetas.size + self.theta_pairs.shape[0]
+        shape = (n_sl, self.ratio_nodes.size, self.v_axis.n, self.s_axis.n)
+        mixed = self._build_mixed(ds)
+        for name in self.variables:
+            parts = ([self._build(ds[name].values)] if self.thetas.size else []) + mixed[name]
+            self.grids[name] = np.ascontiguousarray(_stack(parts, shape))
+        parts = (([self._build(ds["rupture_gap"].values)] if self.thetas.size else [])
+                 + mixed["rupture_gap"])
+        self.rupture = np.ascontiguousarray(_stack(parts, shape[:3]))
+        self.flat = {name: g.ravel() for name, g in self.grids.items()}
+
+    # -------------------------------------------------------------------------- build
+    @staticmethod
+    def _check_status(ds):
+        bad = int((ds["status"].values != int(Status.CONVERGED)).sum())
+        bad_r = int((ds["rupture_status"].values != int(Status.CONVERGED)).sum())
+        if bad or bad_r:
+            raise ValueError(f"the doublet table has {bad} unconverged points and {bad_r} "
+                             "unconverged rupture points; the engine needs a complete table "
+                             "(regenerate it)")
+
+    def _theta_weights(self):
+        """The surrogate's theta treatment: spline to its fine theta nodes, then linear
+        between the two nodes around theta.  Returns (nodes_lo, nodes_hi, w)."""
+        ax = self.surrogate.theta_axis_
+        it, ft = ax.locate(self.thetas)
+        return ax.nodes[it], ax.nodes[it + 1], ft
+
+    def _build(self, values):
+        """values: (ratio, theta, volume[, s]) coarse -> (theta, node, vfine[, sfine]),
+        with the surrogate's own cubic refinement along each axis."""
+        from capbridge.surrogate.doublet import refine_axis
+
+        sur = self.surrogate
+        lo, hi, w = self._theta_weights()
+        a = refine_axis(values, 1, sur.theta_, lo)
+        b = refine_axis(values, 1, sur.theta_, hi)
+        wb = w.reshape((1, -1) + (1,) * (values.ndim - 2))
+        v = a * (1 - wb) + b * wb                                # (ratio, theta, V[, s])
+        v = refine_axis(v, 0, np.log(sur.ratios_), np.log(self.ratio_nodes))  # (node, theta, ...)
+        v = np.swapaxes(v, 0, 1)                                 # (theta, node, V[, s])
+        v = refine_axis(v, 2, np.log(sur.volume_), self.v_axis.nodes)
+        if v.ndim == 4:
+            v = refine_axis(v, 3, sur.s_, self.s_axis.nodes)
+        return v
+
+    def _coarse_ratios_for_nodes(self):
+        """The table's coarse ratios a mixed slice is solved on: the nodes themselves
+        when they are all tabulated ratios, else those bracketing the nodes plus one
+        more on each side (so that the ratio spline is the table's cubic)."""
+        rc = self.surrogate.ratios_
+        if np.all(np.isclose(self.ratio_nodes[:, None], rc[None, :], rtol=1e-12, atol=0).any(axis=1)):
+            return self.ratio_nodes.copy()
+        lo = max(int(np.searchsorted(rc, self.ratio_nodes[0], side="right")) - 2, 0)
+        hi = min(int(np.searchsorted(rc, self.ratio_nodes[-1], side="left")) + 2, rc.size)
+        return rc[lo:hi]
+
+    def _build_mixed(self, ds):
+        """Slices of the mixed pairs: exact coarse solutions
+        (:func:`~capbridge.dem.mixed_angles.exact_coarse`) refined like the
+        table's.  Returns name -> list of (1, node, vfine[, sfine]) arrays."""
+        from capbridge.dem.mixed_angles import exact_coarse
+        from capbridge.surrogate.doublet import refine_axis
+
+        sur = self.surrogate
+        out = {name: [] for name in self.variables + ("rupture_gap",)}
+        if not self.theta_pairs.size:
+            return out
+        rc = self._coarse_ratios_for_nodes()
+        for t1, t2 in self.theta_pairs:
+            ex = exact_coarse(t1, t2, rc, sur.volume_, sur.s_, self.variables)
+            for name, v in ex.items():
+                if rc.size > 1:
+                    v = refine_axis(v, 0, np.log(rc), np.log(self.ratio_nodes))
+                v = refine_axis(v, 1, np.log(sur.volume_), self.v_axis.nodes)
+                if v.ndim == 3:
+                    v = refine_axis(v, 2, sur.s_, self.s_axis.nodes)
+                out[name].append(v[None])
+        return out
+
+    # ------------------------------------------------------------------------- lookup
+    def slice_index(self, theta1, theta2):
+        """Slice of each bridge with angle ``theta1`` on its smaller grain and
+        ``theta2`` on its larger one: the equal-angle slice when they agree, else the
+        exact mixed slice (which must have been asked for in ``theta_pairs``)."""
+        t1 = np.atleast_1d(np.asarray(theta1, float))
+        t2 = np.broadcast_to(np.asarray(theta2, float), t1.shape)
+        same = np.abs(t1 - t2) <= 1e-9
+        out = np.empty(t1.shape, np.intp)
+        if same.any():
+            out[same] = self.theta_index(t1[same])
+        if (~same).any():
+            p = self.theta_pairs
+            hit = (np.abs(p[None, :, 0] - t1[~same, None]) <= 1e-9) & \
+                  (np.abs(p[None, :, 1] - t2[~same, None]) <= 1e-9)
+            if not hit.any(axis=1).all():
+                k = np.flatnonzero(~hit.any(axis=1))[0]
+                raise ValueError(f"contact-angle pair ({t1[~same][k]:g}, {t2[~same][k]:g}) "
+                                 "deg is not in this SceneTable")
+            out[~same] = self.thetas.size + hit.argmax(axis=1)
+        return out
+
+    def theta_index(self, theta):
+        """Index of each contact angle in :attr:`thetas` (must be one of them)."""
+        theta = np.atleast_1d(np.asarray(theta, float))
+        idx = np.searchsorted(self.thetas, theta - 1e-9)
+        idx = np.clip(idx, 0, self.thetas.size - 1)
+        if not np.allclose(self.thetas[idx], theta, rtol=1e-9, atol=1e-9):
+            raise ValueError(f"contact angles {np.setdiff1d(theta, self.thetas)} are not in "
+                             "this SceneTable")
+        return idx
+
+    def ratio_coordinate(self, ratio):
+        """(node index, weight toward the next node) of each ratio."""
+        r = np.atleast_1d(np.asarray(ratio, float))
+        nodes = self.ratio_nodes
+        if self.discrete:
+            i = np.clip(np.searchsorted(nodes, r * (1 - 1e-9)), 0, nodes.size - 1)
+            if not np.allclose(nodes[i], r, rtol=1e-8, atol=0):
+                miss = r[~np.isclose(nodes[i], r, rtol=1e-8, atol=0)][0]
+                raise ValueError(f"radius ratio {miss:g} is not among this SceneTable's "
+                                 f"ratios {nodes.tolist()}")
+            return i.astype(np.intp), np.zeros(r.size)
+        if np.any(r < nodes[0] * (1 - 1e-9)) or np.any(r > nodes[-1] * (1 + 1e-9)):
+            raise ValueError(f"radius ratio outside [{nodes[0]:g}, {nodes[-1]:g}]")
+        u = (np.clip(r, nodes[0], nodes[-1]) - nodes[0]) / (nodes[1] - nodes[0])
+        i = np.clip(np.floor(u), 0, nodes.size - 2).astype(np.intp)
+        return i, u - i
+
+    def volume_coordinate(self, vstar):
+        """(cell index, weight) of V* on the fine log V* axis; V* must be in range."""
+        v = np.atleast_1d(np.asarray(vstar, float))
+        lo, hi = self.vstar_range
+        if np.any(v < lo * (1 - 1e-12)) or np.any(v > hi * (1 + 1e-12)):
+            bad = v[(v < lo * (1 - 1e-12)) | (v > hi * (1 + 1e-12))][0]
+            raise ValueError(f"bridge volume V* = {bad:g} is outside the table's "
+                             f"[{lo:g}, {hi:g}]")
+        ax = self.v_axis
+        u = (np.log(np.clip(v, lo, hi)) - ax.lo) * (1.0 / ax.step)
+        iv = np.clip(u.astype(np.intp), 0, ax.n - 2)
+        return iv, u - iv
+
+    def bridge_constants(self, theta_idx, ratio, vstar):
+        """Everything about a bridge that does not change while it keeps its volume:
+        a dict with the flat base index, the weights and the rupture gap d*_rupt."""
+        ti = np.atleast_1d(np.asarray(theta_idx, np.intp))
+        ri, fr = self.ratio_coordinate(ratio)
+        iv, fv = self.volume_coordinate(vstar)
+        nR, nV, nS = self.ratio_nodes.size, self.v_axis.n, self.s_axis.n
+        rup = self.rupture
+        d_r = rup[ti, ri, iv] * (1 - fv) + rup[ti, ri, iv + 1] * fv
+        if not self.discrete:
+            r2 = np.minimum(ri + 1, nR - 1)
+            d_r2 = rup[ti, r2, iv] * (1 - fv) + rup[ti, r2, iv + 1] * fv
+            d_r = d_r * (1 - fr) + d_r2 * fr
+        base = ((ti * nR + ri) * nV + iv) * nS
+        return {"base": base.astype(np.intp), "fv": fv, "fr": fr, "d_rupt": d_r}
+
+    def s_coordinate(self, gap_star, d_rupt):
+        """(cell, weight) on the s axis; gaps < 0 (overlaps) are taken as contact."""
+        x = 1.0 - gap_star / d_rupt
+        np.minimum(x, 1.0, out=x)
+        np.maximum(x, 0.0, out=x)
+        u = np.sqrt(x, out=x)
+        ax = self.s_axis
+        if ax.lo != 0.0:
+            u -= ax.lo
+        u *= 1.0 / ax.step
+        i_s = u.astype(np.intp)
+        np.minimum(i_s, ax.n - 2, out=i_s)
+        return i_s, u - i_s
+
+    def rows(self, name, const):
+        """The whole s-profile of variable ``name`` for bridges with constants
+        ``const``: an (n, n_s) array (everything but s interpolated once)."""
+        g = self.flat[name]
+        nS, nV = self.s_axis.n, self.v_axis.n
+        cols = np.arange(nS)
+        k = const["base"][:, None] + cols[None, :]
+        fv = const["fv"][:, None]
+        out = g[k] * (1 - fv) + g[k + nS] * fv
+        if not self.discrete:
+            fr = const["fr"][:, None]
+            k2 = np.where(fr > 0, k + nV * nS, k)
+            out = out * (1 - fr) + (g[k2] * (1 - fv) + g[k2 + nS] * fv) * fr
+        return out
+
+    def lookup(self, name, const, gap_star, s_coord=None):
+        """Value of variable ``name`` for bridges with constants ``const`` (see
+        :meth:`bridge_constants`) at ``gap_star``.  Beyond the rupture gap the value is
+        that of the rupture point (callers drop those bridges)."""
+        i_s, fs = s_coord if s_coord is not None else self.s_coordinate(gap_star, const["d_rupt"])
+        flat = self.flat[name]
+        nS = self.s_axis.n
+        k = const["base"] + i_s
+        fv = const["fv"]
+        a = flat[k] + (flat[k + 1] - flat[k]) * fs
+        b = flat[k + nS] + (flat[k + nS + 1] - flat[k + nS]) * fs
+        val = a + (b - a) * fv
+        if not self.discrete:
+            k2 = k + self.v_axis.n * nS
+            k2 = np.where(const["fr"] > 0, k2, k)    # last node: weight 0 anyway
+            a2 = flat[k2] + (flat[k2 + 1] - flat[k2]) * fs
+            b2 = flat[k2 + nS] + (flat[k2 + nS + 1] - flat[k2 + nS]) * fs
+            val2 = a2 + (b2 - a2) * fv
+            val = val + (val2 - val) * const["fr"]
+        return val
+
+    def predict(self, gap_star, vstar, theta, ratio, variables=("force",), theta2=None):
+        """Convenience: values at arbitrary points (arrays broadcast), force 0 and the
+        others NaN beyond rupture; for checks against the surrogate and the exact
+        solver (``theta`` on the smaller grain, ``theta2`` on the larger, default
+        ``theta``)."""
+        g, v, t, r = np.broadcast_arrays(*(np.asarray(a, float) for a in (gap_star, vstar, theta, ratio)))
+        t2 = t if theta2 is None else np.broadcast_to(np.asarray(theta2, float), t.shape)
+        const = self.bridge_constants(self.slice_index(t.ravel(), t2.ravel()), r.ravel(), v.ravel())
+        gs = g.ravel()
+        sc = self.s_coordinate(gs, const["d_rupt"])
+        out = {"rupture_gap": const["d_rupt"].reshape(g.shape)}
+        broken = gs > const["d_rupt"]
+        for name in variables:
+            val = self.lookup(name, const, gs, sc)
+            val = np.where(broken, 0.0 if name == "force" else np.nan, val)
+            out[name] = val.reshape(g.shape)
+        return out
+
+    @property
+    def nbytes(self):
+        return int(sum(g.nbytes for g in self.grids.values()) + self.rupture.nbytes)
+
+
+# ------------------------------------------------------------------------------------
+# Liquid rules
+# ------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class LiquidRule:
+    """How much liquid a bridge gets when it forms (see ``docs/yade_plugin.md``).
+
+    Exactly one of:
+
+    ``bridge_volume``       every bridge that forms gets this volume [m^3];
+    ``bridge_volume_star``  every bridge gets V = V* r^3 (r its smaller radius);
+    ``total_liquid``        a total liquid volume [m^3] (the engine converts a water
+                            content or a degree of saturation into it).
+
+    With ``total_liquid`` and ``conserve=False`` the liquid is shared equally among the
+    bridges present at the start and that volume becomes the fixed volume of every
+    later bridge.  With ``conserve=True`` (default for ``total_liquid``) the liquid is
+    conserved: it starts shared equally among the initial bridges, a ruptured bridge
+    gives its liquid back to its two grains (in proportion to their surface, R^2) and a
+    new bridge takes ``film_fraction`` of the liquid held by each of its two grains.
+    """
+
+    bridge_volume: float | None = None
+    bridge_volume_star: float | None = None
+    total_liquid: float | None = None
+    conserve: bool | None = None
+    film_fraction: float = 0.5
+
+    def __post_init__(self):
+        given = [k for k in ("bridge_volume", "bridge_volume_star", "total_liquid")
+                 if getattr(self, k) is not None]
+        if len(given) != 1:
+            raise ValueError("give exactly one of bridge_volume, bridge_volume_star, "
+                             f"total_liquid (got {given or 'none'})")
+        val = getattr(self, given[0])
+        if not (np.isfinite(val) and val > 0):
+            raise ValueError(f"{given[0]} must be a positive number (got {val!r})")
+        if self.conserve is None:
+            self.conserve = self.total_liquid is not None
+        if self.conserve and self.total_liquid is None:
+            raise ValueError("conserve=True needs a total liquid (total_liquid, "
+                             "water_content or saturation)")
+        if not 0 < self.film_fraction <= 1:
+            raise ValueError("film_fraction must be in (0, 1]")
+
+    @property
+    def kind(self):
+        return "conserved" if self.conserve else "fixed"
+
+
+# ------------------------------------------------------------------------------------
+# The bridges of a packing
+# ------------------------------------------------------------------------------------
+
+
+class _Candidates:
+    """Verlet list of sphere pairs closer than r_i + r_j + skin (for bridge formation)."""
+
+    def __init__(self, radii, skin, reach=0.0):
+        self.radii = radii
+        self.skin = float(skin)
+        self.reach = float(reach)          # formation gap
+        self.i = self.j = np.empty(0, np.intp)
+        self.ref = None
+        self.has_bridge = np.empty(0, bool)
+        self.refused = np.empty(0, bool)   # touching, refused for lack of liquid
+        self.keys = np.empty(0, np.int64)
+        self.rebuilds = 0
+
+    def needs_rebuild(self, pos):
+        if self.ref is None or self.ref.shape != pos.shape:
+            return True
+        d2 = np.einsum("ij,ij->i", pos - self.ref, pos - self.ref)
+        return float(d2.max(initial=0.0)) > (0.5 * self.skin) ** 2
+
+    def rebuild(self, pos, bridge_keys, n, refused_keys=None):
+        """New list around ``pos``; the pairs of ``refused_keys`` (default: those
+        refused in the old list) stay refused."""
+        if refused_keys is None:
+            refused_keys = self.keys[self.refused] if self.refused.size else np.empty(0, np.int64)
+        from scipy.spatial import cKDTree
+
+        r = self.radii
+        cell = getattr(self, "cell", None)     # periodic: nearest images through the faces
+        cut = 2.0 * float(r.max(initial=0.0)) + self.skin
+        if cell is not None:
+            i, j, dv = cell.near_pairs(pos, cut)
+        else:
+            pairs = cKDTree(pos).query_pairs(cut, output_type="ndarray").reshape(-1, 2)
+            i, j = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
+            swap = i > j
+            i, j = np.where(swap, j, i), np.where(swap, i, j)
+            dv = pos[j] - pos[i]
+        keep = np.linalg.norm(dv, axis=1) < r[i] + r[j] + self.skin
+        i, j = i[keep], j[keep]
+        self.i, self.j = i, j
+        self.reach2 = (r[i] + r[j] + self.reach) ** 2
+        self.keys = i.astype(np.int64) * n + j
+        self.has_bridge = np.isin(self.keys, bridge_keys)
+        self.refused = np.isin(self.keys, refused_keys)
+        self.ref = pos.copy()
+        self.rebuilds += 1
+
+    def index_of(self, keys):
+        """Candidate index of each pair key (-1 if absent)."""
+        if self.keys.size == 0:
+            return np.full(len(keys), -1, np.intp)
+        order = np.argsort(self.keys)
+        pos = np.searchsorted(self.keys[order], keys)
+        pos = np.clip(pos, 0, self.keys.size - 1)
+        hit = self.keys[order][pos] == keys
+        return np.where(hit, order[pos], -1)
+
+
+class BridgeModel:
+    """Bridges of a packing of spheres, their volumes, rupture, re-formation and forces.
+
+    Parameters
+    ----------
+    radii : (n,) sphere radii [m].
+    theta : (n,) contact angle of each grain [deg]; a bridge between grains of different
+        angles uses the exact slice of that pair of angles (computed at set-up by
+        :mod:`capbridge.dem.mixed_angles`, angle of the smaller grain first).
+    table : path / Dataset / DoubletSurrogate / :class:`SceneTable` built for the
+        scene (pair angles and ratios), see :meth:`scene_table`.
+    gamma : surface tension [N/m].
+    liquid : :class:`LiquidRule`.
+    formation_gap : a bridge forms when the gap between the surfaces is <= this [m]
+        (0: at contact).
+    initial_wet_gap : at :meth:`initialise`, pairs with gap <= this [m] get a bridge
+        (default ``formation_gap``); use it to start from a wet packing whose grains
+        are not all touching.
+    skin : Verlet skin of the candidate list [m] (default 0.1 * smallest radius).
+    with_beta : also tabulate the filling angles (coalescence detection).
+    """
+
+    def __init__(self, radii, theta, table, gamma, liquid, *, formation_gap=0.0,
+                 initial_wet_gap=None, skin=None, with_beta=True, ratio_step=0.01):
+        self.radii = np.ascontiguousarray(radii, float)
+        self.n = self.radii.size
+        # n = 0: a scene whose wet grains were all erased, restored (nothing to do)
+        if np.any(~(self.radii > 0)):
+            raise ValueError("radii must be positive")
+        self.theta = np.broadcast_to(np.asarray(theta, float), (self.n,)).copy()
+        self.gamma = float(gamma)
+        if not self.gamma > 0:
+            raise ValueError("gamma must be positive")
+        self.liquid = liquid if isinstance(liquid, LiquidRule) else LiquidRule(**liquid)
+        self.formation_gap = float(formation_gap)
+        self.initial_wet_gap = self.formation_gap if initial_wet_gap is None else float(initial_wet_gap)
+        r_min = float(self.radii.min()) if self.n else 0.0
+        self.skin = float(skin) if skin is not None else 0.1 * r_min
+        self.skin = max(self.skin, self.formation_gap, self.initial_wet_gap, 1e-12)
+        # grain angle classes and the pair angle of each combination
+        self.theta_classes, self.grain_class = np.unique(self.theta, return_inverse=True)
+        tc = self.theta_classes
+        # (angle on the smaller grain, angle on the larger) of every pair of classes that
+        # the radii allow (class a can be the smaller, or equal, grain of a pair with b)
+        t_small, t_large = np.meshgrid(tc, tc, indexing="ij")
+        cls = np.arange(tc.size)
+        r_lo = np.array([self.radii[self.grain_class == c].min() for c in cls])
+        r_hi = np.array([self.radii[self.grain_class == c].max() for c in cls])
+        possible = r_lo[:, None] <= r_hi[None, :]
+        if isinstance(table, SceneTable):
+            self.table = table
+        else:
+            variables = ("force", "beta1", "beta2") if with_beta else ("force",)
+            ratios, continuous = self.pair_ratios()
+            self.table = SceneTable(table, tc, ratios, variables=variables,
+                                    ratio_step=ratio_step, continuous=continuous,
+                                    theta_pairs=np.column_stack([t_small[possible],
+                                                                 t_large[possible]]))
+        self.pair_slice = np.full((tc.size, tc.size), -1, np.intp)   # -1: cannot occur
+        self.pair_slice[possible] = self.table.slice_index(t_small[possible], t_large[possible])
+        self.with_beta = with_beta and "beta1" in self.table.grids
+        if self.table.s_axis.lo != 0.0:
+            raise ValueError("the table's s axis must start at 0 (s = sqrt(1 - d/d_rupt))")
+        self._check_fixed_volume()
+        self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
+        self._empty()
+        self.films = np.zeros(self.n)
+        # gravity part of each grain's force last handed to the DEM [N] (liquid_gravity)
+        self.gravity_held = np.zeros((self.n, 3))
+        self.ledger = {"rule": self.liquid.kind, "initial_volume": 0.0, "initial_count": 0,
+                       "formed_count": 0, "formed_volume": 0.0, "ruptured_count": 0,
+                       "ruptured_volume": 0.0, "formations_short_of_liquid": 0,
+                       "total_liquid": self.liquid.total_liquid, "removed_grains": 0,
+                       "removed_volume": 0.0}
+        self.fixed_volume = self.liquid.bridge_volume
+        self.initialised = False
+        self._pending_refused = None
+
+    # ------------------------------------------------------------------------ set-up
+    def pair_ratios(self, max_radii=4):
+        """Radius ratios the packing can produce and whether they form a continuum:
+        (ratios, continuous).  Up to ``max_radii`` distinct radii, all their ratios
+        (exact grids); more, the range [1, r_max/r_min]."""
+        rad = distinct_values(self.radii)
+        if rad.size <= max_radii:
+            rr = rad[None, :] / rad[:, None]
+            return distinct_values(rr[rr >= 1.0 - 1e-12]), False
+        return np.array([1.0, rad[-1] / rad[0]]), True
+
+    def _check_fixed_volume(self):
+        if self.n == 0:
+            return
+        lo, hi = self.table.vstar_range
+        rmin, rmax = float(self.radii.min()), float(self.radii.max())
+        if self.liquid.bridge_volume is not None:
+            v = self.liquid.bridge_volume
+            vs = (v / rmax**3, v / rmin**3)
+            if vs[0] < lo * (1 - 1e-12) or vs[1] > hi * (1 + 1e-12):
+                raise ValueError(
+                    f"bridge_volume {v:g} m^3 gives V* = V/r^3 from {vs[0]:g} to {vs[1]:g} "
+                    f"over the grain radii [{rmin:g}, {rmax:g}] m; the table covers "
+                    f"[{lo:g}, {hi:g}]: choose a volume inside "
+                    f"[{lo * rmin**3:g}, {hi * rmax**3:g}] m^3 (when possible) or use "
+                    "bridge_volume_star")
+        if self.liquid.bridge_volume_star is not None:
+            v = self.liquid.bridge_volume_star
+            if v < lo * (1 - 1e-12) or v > hi * (1 + 1e-12):
+                raise ValueError(f"bridge_volume_star {v:g} is outside the table's [{lo:g}, {hi:g}]")
+
+    def _empty(self):
+        e_i = np.empty(0, np.intp)
+        e_f = np.empty(0)
+        nS = self.table.s_axis.n
+        self.pool = np.zeros((64, nS))          # force profile F*(s) of every bridge, by slot
+        self.free = list(range(63, -1, -1))
+        self.slot = e_i.copy()
+        self.bi, self.bj, self.cidx = e_i, e_i.copy(), e_i.copy()
+        self.vol, self.vstar, self.rsmall = e_f, e_f.copy(), e_f.copy()
+        self.const = {"base": e_i.copy(), "fv": e_f.copy(), "fr": e_f.copy(), "d_rupt": e_f.copy()}
+        self.d_rupt_si = e_f.copy()
+        self.rsum = e_f.copy()                   # r_i + r_j
+        self.inv_dr = e_f.copy()                 # 1 / rupture gap [1/m]
+        self.fscale = e_f.copy()                 # 2 pi gamma r_small [N]
+        self.fstar_min = e_f.copy()              # smallest F* over s >= 0.2 (gravity)
+        self.keys = np.empty(0, np.int64)
+        self.born = e_i.copy()
+        self.held = np.empty((0, 3))             # force vector last handed to the DEM
+        self._touched = e_i.copy()               # grains that lost a bridge this update
+
+    @property
+    def n_bridges(self):
+        return int(self.bi.size)
+
+    # ---------------------------------------------------------------------- formation
+    def _volume_for(self, i, j):
+        """Fixed rule: the volume of a new bridge between grains i, j."""
+        rs = np.minimum(self.radii[i], self.radii[j])
+        if self.liquid.bridge_volume_star is not None:
+            return self.liquid.bridge_volume_star * rs**3
+        return np.full(np.shape(i), float(self.fixed_volume))
+
+    def _add(self, i, j, vol, step):
+        i = np.asarray(i, np.intp)
+        j = np.asarray(j, np.intp)
+        if i.size == 0:
+            return
+        sw = i > j
+        i, j = np.where(sw, j, i), np.where(sw, i, j)
+        rs = np.minimum(self.radii[i], self.radii[j])
+        ratio = np.maximum(self.radii[i], self.radii[j]) / rs
+        vstar = vol / rs**3
+        # the smaller grain (i when equal, as in filling_angles) carries theta1
+        i_small = self.radii[i] <= self.radii[j]
+        small, large = np.where(i_small, i, j), np.where(i_small, j, i)
+        ti = self.pair_slice[self.grain_class[small], self.grain_class[large]]
+        if np.any(ti < 0):                        # cannot happen with the model's radii
+            raise RuntimeError("a bridge between angle classes the radii do not allow")
+        c = self.table.bridge_constants(ti, ratio, vstar)
+        keys = i.astype(np.int64) * self.n + j
+        cidx = self.cand.index_of(keys)
+        while len(self.free) < i.size:          # grow the pool of force profiles
+            old = self.pool.shape[0]
+            self.pool = np.vstack([self.pool, np.zeros_like(self.pool)])
+            self.free[:0] = list(range(2 * old - 1, old - 1, -1))
+        slots = np.array([self.free.pop() for _ in range(i.size)], np.intp)
+        prof = self.table.rows("force", c)
+        self.pool[slots] = prof
+        # smallest attraction over s >= 0.2 (liquid_gravity.ERROR_BAND, the band of the
+        # table's held-out error): the bridge's largest relative gravity correction
+        band = self.table.s_axis.nodes >= ERROR_BAND
+        self.fstar_min = np.concatenate([self.fstar_min, prof[:, band].min(axis=1)])
+        self.slot = np.concatenate([self.slot, slots])
+        if np.any(cidx >= 0):
+            self.cand.has_bridge[cidx[cidx >= 0]] = True
+        self.bi = np.concatenate([self.bi, i])
+        self.bj = np.concatenate([self.bj, j])
+        self.cidx = np.concatenate([self.cidx, cidx])
+        self.vol = np.concatenate([self.vol, vol])
+        self.vstar = np.concatenate([self.vstar, vstar])
+        self.rsmall = np.concatenate([self.rsmall, rs])
+        for k in self.const:
+            self.const[k] = np.concatenate([self.const[k], c[k]])
+        d_rupt_si = c["d_rupt"] * rs
+        self.d_rupt_si = np.concatenate([self.d_rupt_si, d_rupt_si])
+        self.rsum = np.concatenate([self.rsum, self.radii[i] + self.radii[j]])
+        self.inv_dr = np.concatenate([self.inv_dr, 1.0 / d_rupt_si])
+        self.fscale = np.concatenate([self.fscale, force_scale(rs, self.gamma)])
+        self.keys = np.concatenate([self.keys, keys])
+        self.born = np.concatenate([self.born, np.full(i.size, step, np.intp)])
+        self.held = np.vstack([self.held, np.zeros((i.size, 3))])
+
+    def set_volumes(self, rows, volumes):
+        """Give bridges ``rows`` new volumes [m^3] (their force profile and rupture gap
+        follow), keeping their birth step and held force.  The bridges move to the end of
+        the arrays; the ledger is not touched (the caller keeps the total volume) and no
+        grain is listed as having lost a bridge."""
+        rows = np.asarray(rows, np.intp)
+        if rows.size == 0:
+            return
+        i, j = self.bi[rows].copy(), self.bj[rows].copy()
+        born, held = self.born[rows].copy(), self.held[rows].copy()
+        mask = np.zeros(self.n_bridges, bool)
+        mask[rows] = True
+        touched = self._touched.copy()
+        self._remove(mask)
+        self._touched = touched            # no bridge was lost: no grain to re-list
+        n0 = self.n_bridges
+        self._add(i, j, np.asarray(volumes, float), 0)
+        self.born[n0:] = born
+        self.held[n0:] = held
+
+    def _remove(self, mask):
+        keep = ~mask
+        gone = self.cidx[mask]
+        gone = gone[gone >= 0]
+        self.cand.has_bridge[gone] = False
+        self.free.extend(self.slot[mask].tolist())
+        self._touched = np.concatenate([self._touched, self.bi[mask], self.bj[mask]])
+        for name in ("bi", "bj", "cidx", "vol", "vstar", "rsmall", "d_rupt_si", "keys", "born",
+                     "slot", "held", "rsum", "inv_dr", "fscale", "fstar_min"):
+            setattr(self, name, getattr(self, name)[keep])
+        for k in self.const:
+            self.const[k] = self.const[k][keep]
+
+    def _film_share(self, i, j, vol):
+        """Split ``vol`` between grains i and j in proportion to R^2 (onto their films)."""
+        a, b = self.radii[i] ** 2, self.radii[j] ** 2
+        np.add.at(self.films, i, vol * a / (a + b))
+        np.add.at(self.films, j, vol * b / (a + b))
+
+    def _clip_volume(self, i, j, vol):
+        """Volumes limited to the table's V* range: (kept, too_small mask)."""
+        rs = np.minimum(self.radii[i], self.radii[j])
+        lo, hi = self.table.vstar_range
+        kept = np.minimum(vol, hi * rs**3)
+        return kept, kept < lo * rs**3 * (1 + 1e-12)
+
+    def _form(self, i, j, step):
+        """New bridges on touching pairs i, j (arrays) under the liquid rule.
+
+        Conserved liquid (films): a grain that forms k bridges in this update gives each
+        of them ``film_fraction / k`` of its film, so that the order of the pairs does
+        not matter and a grain never gives more than ``film_fraction`` of its film in
+        one update; the bridge volume is capped at the table's largest V* (the rest
+        stays on the films, in proportion to what each grain offered); a pair whose
+        bridge would be below the table's smallest V* is refused and its liquid stays
+        on the films.  Returns (number formed, refused mask over the pairs)."""
+        refused = np.zeros(i.size, bool)
+        if i.size == 0:
+            return 0, refused
+        if self.liquid.kind == "fixed":
+            vol = self._volume_for(i, j)
+            self._add(i, j, vol, step)
+            self.ledger["formed_count"] += int(i.size)
+            self.ledger["formed_volume"] += float(vol.sum())
+            return int(i.size), refused
+        f = self.liquid.film_fraction
+        lo, hi = self.table.vstar_range
+        k = np.bincount(i, minlength=self.n) + np.bincount(j, minlength=self.n)
+        offer_i = f * self.films[i] / k[i]
+        offer_j = f * self.films[j] / k[j]
+        want = offer_i + offer_j
+        rs = np.minimum(self.radii[i], self.radii[j])
+        v = np.minimum(want, hi * rs**3)
+        refused = ~((v > 0) & (v >= lo * rs**3 * (1 + 1e-12)))
+        ok = ~refused
+        if ok.any():
+            i, j, v, offer_i, want = i[ok], j[ok], v[ok], offer_i[ok], want[ok]
+            take_i = offer_i * (v / want)
+            self.films -= (np.bincount(i, take_i, minlength=self.n)
+                           + np.bincount(j, v - take_i, minlength=self.n))
+            np.maximum(self.films, 0.0, out=self.films)   # round-off of the subtractions
+            self._add(i, j, v, step)
+            self.ledger["formed_count"] += int(i.size)
+            self.ledger["formed_volume"] += float(v.sum())
+        self.ledger["formations_short_of_liquid"] += int(refused.sum())
+        return int(ok.sum()), refused
+
+    def initialise(self, pos, step=0, pairs=None):
+        """First bridges: every pair with gap <= ``initial_wet_gap`` (or exactly the
+        grain pairs ``pairs``, an (m, 2) array of indices), with the rule's volume (a
+        total liquid is shared equally among them)."""
+        pos = np.asarray(pos, float)
+        self._empty()
+        self.films[:] = 0.0
+        self.cand.rebuild(pos, self.keys, self.n, np.empty(0, np.int64))
+        if pairs is not None:
+            pairs = np.asarray(pairs, np.intp).reshape(-1, 2)
+            i, j = pairs[:, 0], pairs[:, 1]
+            if np.any(i == j) or np.any((i < 0) | (j < 0) | (i >= self.n) | (j >= self.n)):
+                raise ValueError("initial pairs must be pairs of two different grains")
+        else:
+            gap = self._cand_gaps(pos)
+            wet = gap <= self.initial_wet_gap
+            i, j = self.cand.i[wet], self.cand.j[wet]
+        L = self.liquid
+        if L.total_liquid is not None and L.conserve:
+            # the liquid starts on the grains, as a uniform water content (films in
+            # proportion to the grain volume), and the initial bridges take it from
+            # there like any later one
+            self.films[:] = float(L.total_liquid) * self.radii**3 / float((self.radii**3).sum())
+            _, refused = self._form(i, j, step)
+            self.ledger["formed_count"] = 0
+            self.ledger["formed_volume"] = 0.0
+            self._mark_refused(i[refused], j[refused])
+        elif L.total_liquid is not None:
+            if i.size == 0:
+                raise ValueError("no initial bridges to share the liquid among: give a "
+                                 "bridge_volume, wet a larger gap, or conserve=True")
+            v = float(L.total_liquid) / i.size
+            self.fixed_volume = v
+            self.liquid = dataclasses.replace(L, total_liquid=None, bridge_volume=v,
+                                              conserve=False)
+            self._check_fixed_volume()
+            self._add(i, j, np.full(i.size, v), step)
+        else:
+            self._add(i, j, self._volume_for(i, j), step)
+        self.ledger["initial_count"] = self.n_bridges
+        self.ledger["initial_volume"] = float(self.vol.sum())
+        self.ledger["formations_short_of_liquid"] = 0
+        self.ledger["bridge_volume"] = self.fixed_volume
+        self.initialised = True
+
+    # --------------------------------------------------------------------------- step
+    def pair_vectors(self, pos, i, j):
+        """Centre-to-centre vectors i -> j [m] of grain pairs, (m, 3).
+
+        The one place where the engine turns positions into bridge geometry: a periodic
+        cell (the shift to the nearest image) or a wall partner (the foot of the
+        perpendicular on the wall) belongs here, and every gap, rupture test,
+        formation test and force direction follows."""
+        d = pos[j]
+        d -= pos[i]
+        cell = getattr(self, "cell", None)     # capbridge.dem.periodic.PeriodicCell
+        if cell is not None:
+            cell.min_image(d)
+        return d
+
+    def _cand_gaps(self, pos):
+        ci, cj = self.cand.i, self.cand.j
+        d = self.pair_vectors(pos, ci, cj)
+        return np.sqrt(np.einsum("ij,ij->i", d, d)) - self.radii[ci] - self.radii[cj]
+
+    def update(self, pos, step=0, form=True, initial_pairs=None):
+        """Advance the bridges to positions ``pos`` (n, 3): ruptures, formations.
+
+        Returns a dict with the bridge geometry of this step (``d`` centre-to-centre
+        vectors i -> j and their length ``dist``, ``gap`` [m], ``force`` [N],
+        attraction > 0) and the counts of events.
+        """
+        pos = np.asarray(pos, float)
+        if not self.initialised:
+            self.initialise(pos, step, pairs=initial_pairs)
+        if self.cand.needs_rebuild(pos):
+            self.cand.rebuild(pos, self.keys, self.n, self._pending_refused)
+            self._pending_refused = None
+            self.cidx = self.cand.index_of(self.keys)
+        self._touched = np.empty(0, np.intp)
+        # ruptures
+        d = self.pair_vectors(pos, self.bi, self.bj)
+        dist = np.sqrt(np.einsum("ij,ij->i", d, d))
+        gap = dist - self.rsum
+        broken = gap > self.d_rupt_si
+        n_rupt = int(np.count_nonzero(broken))
+        if n_rupt:
+            v = self.vol[broken]
+            self.ledger["ruptured_count"] += n_rupt
+            self.ledger["ruptured_volume"] += float(v.sum())
+            if self.liquid.kind == "conserved":
+                self._film_share(self.bi[broken], self.bj[broken], v)
+                self._release_refused(np.concatenate([self.bi[broken], self.bj[broken]]))
+            self._remove(broken)
+            keep = ~broken
+            d, dist, gap = d[keep], dist[keep], gap[keep]
+        # formations at contact
+        n_form = 0
+        if form and self.cand.i.size:
+            # only pairs without a bridge, and not refused (no retry until a film grows)
+            idx = np.flatnonzero(~(self.cand.has_bridge | self.cand.refused))
+            dc = self.pair_vectors(pos, self.cand.i[idx], self.cand.j[idx])
+            idx = idx[np.einsum("ij,ij->i", dc, dc) <= self.cand.reach2[idx]]
+            if idx.size:
+                n0 = self.n_bridges
+                n_form, refused = self._form(self.cand.i[idx], self.cand.j[idx], step)
+                self.cand.refused[idx[refused]] = True
+                if n_form:
+                    nd = self.pair_vectors(pos, self.bi[n0:], self.bj[n0:])
+                    nds = np.sqrt(np.einsum("ij,ij->i", nd, nd))
+                    d = np.vstack([d, nd])
+                    dist = np.concatenate([dist, nds])
+                    gap = np.concatenate([gap, nds - self.rsum[n0:]])
+        # force: the bridge's own profile F*(s), s = sqrt(1 - gap / d_rupt)
+        x = gap * self.inv_dr
+        np.subtract(1.0, x, out=x)
+        np.clip(x, 0.0, 1.0, out=x)
+        u = np.sqrt(x, out=x)
+        ax = self.table.s_axis
+        u *= 1.0 / ax.step                      # the s axis starts at 0
+        i_s = u.astype(np.intp)
+        np.minimum(i_s, ax.n - 2, out=i_s)
+        u -= i_s
+        k = self.slot * self.pool.shape[1]
+        k += i_s
+        flat = self.pool.ravel()
+        a = flat[k]
+        force = flat[k + 1]
+        force -= a
+        force *= u
+        force += a
+        force *= self.fscale
+        return {"d": d, "dist": dist, "gap": gap, "force": force, "ruptured": n_rupt,
+                "formed": n_form}
+
+    def grain_forces(self, geom, tolerance=0.0, list_changed=True):
+        """Bridge forces summed on the grains, for the DEM.
+
+        Returns ``(forces, changed)``: ``forces`` (n, 3) [N] (attraction: grain i is
+        pulled towards j, j towards i; every bridge's pair of forces is equal and
+        opposite along the centre line) and the indices of the grains whose force
+        changed.  With ``tolerance > 0`` a bridge keeps the force vector last handed
+        out (:attr:`held`) until the new one differs from it by more than
+        ``tolerance`` times its magnitude; the sums use the held vectors, so action
+        and reaction stay exactly opposite and only grains of updated (or ruptured)
+        bridges are listed as changed.  ``list_changed=False``: ``changed`` is None
+        (not needed when every force is handed out every step).
+        """
+        fv = geom["d"] * (geom["force"] / geom["dist"])[:, None]
+        if tolerance > 0.0 and self.held.shape[0] == fv.shape[0]:
+            diff = fv - self.held
+            upd = np.einsum("ij,ij->i", diff, diff) > (tolerance * geom["force"]) ** 2
+            self.held[upd] = fv[upd]
+            changed = np.unique(np.concatenate([self.bi[upd], self.bj[upd], self._touched]))
+        else:
+            self.held = fv
+            changed = None
+        out = self._bridge_sums()
+        if changed is None and list_changed:
+            changed = np.unique(np.concatenate([self.bi, self.bj, self._touched]))
+        return out, changed
+
+    def held_grain_forces(self):
+        """(n, 3) sums on the grains of the force vectors last handed out [N]: the
+        bridges' forces and the liquid's weight (:attr:`gravity_held`, set by
+        :class:`~capbridge.dem.liquid_gravity.LiquidGravity`)."""
+        out = self._bridge_sums()
+        if self.gravity_held.shape == out.shape:
+            out += self.gravity_held
+        return out
+
+    def _bridge_sums(self):
+        """(n, 3) sums on the grains of the bridges' force vectors last handed out."""
+        h = self.held.ravel()
+        xyz = np.arange(3)
+        on_i = np.bincount((3 * self.bi[:, None] + xyz).ravel(), h, minlength=3 * self.n)
+        on_j = np.bincount((3 * self.bj[:, None] + xyz).ravel(), h, minlength=3 * self.n)
+        # (float even with no bridge: bincount of nothing gives integers)
+        return (on_i - on_j).reshape(self.n, 3).astype(float, copy=False)
+
+    def filling_angles(self, gap):
+        """Half filling angles [deg] of each bridge on its grains bi and bj."""
+        if not self.with_beta:
+            raise RuntimeError("the SceneTable was built without beta1/beta2")
+        gs = gap / self.rsmall
+        sc = self.table.s_coordinate(gs, self.const["d_rupt"])
+        b1 = self.table.lookup("beta1", self.const, gs, sc)   # on the smaller grain
+        b2 = self.table.lookup("beta2", self.const, gs, sc)
+        i_small = self.radii[self.bi] <= self.radii[self.bj]
+        return np.where(i_small, b1, b2), np.where(i_small, b2, b1)
+
+    # ---------------------------------------------------------------- liquid on films
+    def _mark_refused(self, i, j):
+        """Pairs (i, j) refused for lack of liquid: not tried again until a film of
+        theirs grows (:meth:`_release_refused`)."""
+        if i.size == 0:
+            return
+        lo, hi = np.minimum(i, j), np.maximum(i, j)
+        c = self.cand.index_of(lo.astype(np.int64) * self.n + hi)
+        self.cand.refused[c[c >= 0]] = True
+
+    def _release_refused(self, grains):
+        """Grains whose film grew (a rupture gave them liquid): their refused pairs may
+        form a bridge again."""
+        if self.cand.refused.any():
+            grew = np.zeros(self.n, bool)
+            grew[grains] = True
+            self.cand.refused &= ~(grew[self.cand.i] | grew[self.cand.j])
+
+    def drop_grains(self, gone):
+        """Remove grains (erased from the scene): their bridges rupture by the rule
+        (conserved: the bridge's liquid is split onto the two grains' films, in
+        proportion to R^2), then the grains leave with their films; the liquid that
+        leaves is counted in the ledger (``removed_volume``), so the budget stays
+        exact.  Returns the new index of every old grain (-1: removed)."""
+        gone = np.asarray(gone, bool)
+        if not gone.any():
+            return np.arange(self.n)
+        hit = gone[self.bi] | gone[self.bj]
+        if hit.any():
+            v = self.vol[hit]
+            self.ledger["ruptured_count"] += int(hit.sum())
+            self.ledger["ruptured_volume"] += float(v.sum())
+            if self.liquid.kind == "conserved":
+                self._film_share(self.bi[hit], self.bj[hit], v)
+            self._remove(hit)
+        if self.liquid.kind == "conserved":
+            self.ledger["removed_volume"] += float(self.films[gone].sum())
+        self.ledger["removed_grains"] += int(gone.sum())
+        keep = ~gone
+        new_index = np.where(keep, np.cumsum(keep) - 1, -1)
+        self.radii = np.ascontiguousarray(self.radii[keep])
+        self.theta = self.theta[keep]
+        self.grain_class = self.grain_class[keep]
+        self.films = self.films[keep]
+        if self.gravity_held.shape[0] == keep.size:
+            self.gravity_held = self.gravity_held[keep]
+        self.n = int(self.radii.size)
+        self.bi, self.bj = new_index[self.bi], new_index[self.bj]
+        self.keys = self.bi.astype(np.int64) * self.n + self.bj
+        self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
+        self.cidx = np.full(self.bi.size, -1, np.intp)
+        return new_index
+
+    # ----------------------------------------------------------------- save / restore
+    def get_state(self):
+        """Everything needed to continue exactly (a dict of arrays and JSON values):
+        the bridges (grains, volume, birth step, force last handed out), the films,
+        the refused pairs, the ledger and the liquid rule.  Force profiles and rupture
+        gaps are not stored: :meth:`set_state` recomputes them from the table, which
+        gives the same numbers."""
+        return {"n": self.n, "radii": self.radii.copy(), "theta": self.theta.copy(),
+                "bi": self.bi.copy(), "bj": self.bj.copy(), "vol": self.vol.copy(),
+                "born": self.born.copy(), "held": self.held.copy(),
+                "films": self.films.copy(), "gravity_held": self.gravity_held.copy(),
+                "refused_keys": self.cand.keys[self.cand.refused].copy(),
+                "ledger": dict(self.ledger), "fixed_volume": self.fixed_volume,
+                "initialised": self.initialised, "liquid": dataclasses.asdict(self.liquid)}
+
+    def set_state(self, st):
+        """Continue from :meth:`get_state`'s dict (same grains, same table)."""
+        radii = np.asarray(st["radii"], float)
+        if radii.shape != self.radii.shape or not np.array_equal(radii, self.radii) \
+                or not np.array_equal(np.asarray(st["theta"], float), self.theta):
+            raise ValueError(f"saved bridge state is for {radii.size} grains with other radii "
+                             f"or angles than the {self.n} grains of this model")
+        self.liquid = LiquidRule(**st["liquid"])
+        self.fixed_volume = st["fixed_volume"]
+        self._empty()
+        self.films = np.asarray(st["films"], float).copy()
+        bi, bj = np.asarray(st["bi"], np.intp), np.asarray(st["bj"], np.intp)
+        self._add(bi, bj, np.asarray(st["vol"], float), 0)
+        self.born = np.asarray(st["born"], np.intp).copy()
+        self.held = np.asarray(st["held"], float).reshape(-1, 3).copy()
+        gh = st.get("gravity_held")            # absent in states saved before gravity
+        self.gravity_held = (np.zeros((self.n, 3)) if gh is None
+                             else np.asarray(gh, float).reshape(-1, 3).copy())
+        self.ledger = dict(st["ledger"])
+        self.initialised = bool(st["initialised"])
+        self.cand.ref = None                       # rebuilt at the next update
+        self._pending_refused = np.asarray(st["refused_keys"], np.int64)
+
+    # ------------------------------------------------------------------------ budget
+    def liquid_report(self, pore_volume=None):
+        """Where the liquid is now: bridges, films, total [m^3] and, with the pore
+        volume [m^3], the degree of saturation S_r = liquid / pores (total and in
+        bridges)."""
+        b = float(self.vol.sum()) + float(getattr(self, "wall_volume", 0.0))
+        f = float(self.films.sum())
+        out = {"bridges": b, "films": f, "total": b + f, "n_bridges": self.n_bridges,
+               "wet_grains": int(np.count_nonzero(np.bincount(
+                   np.concatenate([self.bi, self.bj]), minlength=self.n))),
+               "saturation": None, "saturation_bridges": None}
+        if pore_volume:
+            out["saturation"] = (b + f) / pore_volume
+            out["saturation_bridges"] = b / pore_volume
+        return out
+
+    def budget(self):
+        """The liquid ledger.  ``balance`` is what the rule says must hold, exactly:
+
+        fixed:     active = initial + formed - ruptured
+        conserved: active + films = total_liquid - removed (liquid that left with
+                   erased grains)
+        """
+        L = dict(self.ledger)
+        active = float(self.vol.sum())
+        L["active_count"] = self.n_bridges
+        L["active_volume"] = active
+        L["film_volume"] = float(self.films.sum())
+        # liquid in wall bridges (capbridge.dem.wall_bridges), conserving rule
+        L["wall_volume"] = float(getattr(self, "wall_volume", 0.0))
+        if self.liquid.kind == "conserved":
+            expected = float(self.liquid.total_liquid) - L["removed_volume"]
+            got = active + L["film_volume"] + L["wall_volume"]
+        else:
+            expected = L["initial_volume"] + L["formed_volume"] - L["ruptured_volume"]
+            got = active
+        L["expected"] = expected
+        L["accounted"] = got
+        scale = (float(self.liquid.total_liquid) if self.liquid.kind == "conserved"
+                 else L["initial_volume"] + L["formed_volume"])
+        L["balance_error"] = balance_error(got, expected, scale)
+        return L

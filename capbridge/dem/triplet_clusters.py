@@ -1,0 +1,750 @@
+"""Coalesced triplets in a DEM packing: liquid clusters with the triplet table's forces.
+
+Plain numpy bookkeeping (no YADE here), used by
+:class:`~capbridge.yade.engine.CapbridgeEngine` on top of its
+:class:`~capbridge.dem.bridges.BridgeModel`.
+
+The rule (documented in ``docs/yade_plugin.md``, "Coalesced triplets")
+--------------------------------------------------------------------
+**Merge.**  At every coalescence check the detector
+(:func:`~capbridge.dem.coalescence_detect.find_coalescence`) reports the bridges
+whose wetted caps meet on a shared grain, grouped into connected clusters.  A cluster
+that touches exactly three grains (two bridges on a shared grain, or a closed triangle;
+every bridge among the three grains joins it) becomes one liquid body of volume
+V = sum of its bridges' volumes (exact: the bridges keep their volumes in the model's
+ledger while merged, so the liquid budget does not move) if the triplet table has the
+coalesced body there (status with a result) and does not say the separated state has
+the lower energy.  From then on the three grains get the table's pair forces
+(:meth:`~capbridge.surrogate.triplet.TripletSurrogate.predict_vectors` at the three
+current centres, lengths / the smallest radius, forces * 2 pi gamma r) *instead of* the doublet forces of those
+bridges, at every step.
+
+**Split.**  At every step the cluster is looked up again; it splits back into separate
+bridges when
+
+* the geometry or volume leaves the coalesced body's domain: gaps or angle outside the
+  table, v = V*/V*_coal outside the table (no extrapolated number is used), or a
+  status without a result (``NO_EQUILIBRIUM``: the coalesced body does not exist there;
+  ``NOT_CONVERGED``) -> event ``split_geometry``;
+* the table says the separated state has the lower energy (``lower_energy_state`` ==
+  "separated"; the paper's criterion on drying / separation) -> ``split_energy``.
+
+The liquid of a split cluster is shared among its bridges at **equal Laplace pressure**
+(equal radii and one angle): by default on the doublet table's P*(d*, V*)
+(:func:`table_equal_pressure`, milliseconds; volumes within ~1e-4 of the exact state,
+measured) or, with ``split_solver="exact"``, from exact doublets
+(:func:`~capbridge.tables.coalescence.separated_state`, seconds per split:
+measured 813 s for 331 splits in 400 steps of a 1,000-grain packing, in a cost test with
+the development table relabelled to cover contact: too slow as a default).
+If the solve has no answer (unequal radii; the configuration does not exist at this
+volume; the table method also when a bridge would be past its pressure fold, which
+only the exact solver follows; a share outside the doublet table's V* range) the
+bridges keep the volumes they had when they merged (shares proportional to them:
+exactly those volumes), counted as ``split_share_fallback``.  The shares add up to
+the cluster volume to round-off (the last share is the remainder), so the ledger stays
+exact; a bridge whose gap is beyond its rupture gap at its new share then ruptures at
+once by the engine's own rule (conserved liquid: onto the two grains' films).  Merge
+and split use the same test (a result, not "separated"), so a cluster does not chatter;
+between the two (caps apart again but the coalesced body still valid) it persists: the
+hysteresis of coalescence.
+
+**Funicular onset.**  A detected cluster touching four grains or more is never treated
+as a triplet: its bridges keep their doublet forces (the fallback), it is counted
+(``funicular_fallback``, once per new cluster) and reported (number, grains, volume).  A
+merged triplet whose bridges join such a cluster is released to its bridges (volumes
+unchanged) under the same fallback.
+
+**Other fallbacks** (doublet forces kept, counted): three grains of different contact
+angles (``mixed_angle``: the table has one angle), merge candidates the table cannot
+answer (``merge_refused``), a cluster whose bridge ruptured by the doublet rule or left
+with an erased grain (``dissolved``).  Unequal radii use the surrogate's documented
+approximation (status ``APPROXIMATE``), counted (``approximate``, per merge).
+
+**No cost without coalescence.**  The triplet table is loaded at the first merge
+candidate (:attr:`LiquidClusters.loaded`), never before; with no cluster the engine
+does not call this module at all.
+
+Conventions: grain indices are the model's (rows of ``BridgeModel``); SI units (m, m^3,
+N); angles in degrees.
+
+References
+----------
+Miot et al. (2021), Granular Matter 23:66: coalescence of two bridges on a shared grain,
+the force of the coalesced body, and the energy criterion on drying.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from capbridge.dimensionless import force_scale
+from capbridge.physics.gravity import liquid_weight
+from capbridge.status import HAS_RESULT, Status
+from capbridge.validation import CapbridgeInputError
+
+__all__ = ["LiquidClusters", "EVENTS", "set_bridge_volumes", "triangle_centres",
+           "load_surrogate", "table_equal_pressure", "SPLIT_SOLVERS"]
+
+#: event counters of :class:`LiquidClusters` (name -> meaning)
+EVENTS = {
+    "merged": "bridges merged into a coalesced triplet (triplet forces from then on)",
+    "split_geometry": "clusters split: geometry/volume outside the coalesced body's domain "
+                      "(out of the table, no equilibrium, no result)",
+    "split_energy": "clusters split: the separated state has the lower energy",
+    "split_share_fallback": "splits whose equal-pressure shares could not be solved: the "
+                            "bridges kept their merge-time volumes",
+    "funicular_fallback": "clusters of >= 4 grains detected (doublet forces kept)",
+    "approximate": "merges of unequal radii (surrogate approximation, status approximate)",
+    "mixed_angle": "coalesced triplets of different contact angles (doublet forces kept; "
+                   "counted at every check)",
+    "merge_refused": "coalesced triplets the table cannot answer or where the separated "
+                     "state is lower (doublet forces kept; once per triplet until it "
+                     "merges or its caps part)",
+    "dissolved": "clusters whose bridge ruptured by the doublet rule or left with an "
+                 "erased grain",
+}
+
+_SEPARATED = 1                # LOWER_ENERGY_STATES code of "separated"
+#: how a split cluster shares its liquid (LiquidClusters split_solver)
+SPLIT_SOLVERS = ("table", "exact", "merge_volumes")
+
+
+def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, newton=6):
+    """Volumes of separate bridges sharing ``volume`` at one Laplace pressure, from the
+    doublet table (equal spheres, lengths / r).
+
+    Each bridge b at gap d_b has the tabulated P*_b(V*) at fixed gap; on its
+    exchange-stable branch (volumes above the pressure minimum, where dP/dV > 0: the
+    branch of :func:`~capbridge.tables.coalescence.separated_state` for every
+    bridge not past its pressure fold) P*_b is inverted on a log grid, the common P* with
+    sum_b V_b(P*) = V* is found by bisection (the sum increases with P*), then Newton
+    steps on (V_b, P*) with the surrogate's slopes make the tabulated pressures equal to
+    ~1e-10.  The equal-pressure state is thus exact for the table; its error against
+    exact doublets is the table's P* interpolation error (compared in
+    ``tests/test_triplet_clusters.py``).
+
+    Parameters
+    ----------
+    doublet : DoubletSurrogate (fitted).
+    gaps : (nb,) gaps d* of the bridges (>= 0).
+    volume : float, total V*.
+    theta : float, contact angle [deg].
+    vstar_range : (low, high) V* range of the table.
+
+    Returns
+    -------
+    ndarray (nb,) or None
+        V*_b (their sum is ``volume`` to round-off), or None when no such state exists
+        on the table (a bridge cannot exist at any share, the common pressure is outside
+        the branches, the branch is not monotonic).
+    """
+    gaps = np.maximum(np.asarray(gaps, float), 0.0)
+    lo, hi = vstar_range
+    if volume <= lo * gaps.size:
+        return None
+    grid = np.geomspace(lo, min(hi, volume), n_grid)
+    r = doublet.predict(gaps[:, None], grid[None, :], theta, variables=("pressure",))
+    P = np.where(r["status"] == Status.CONVERGED, r["pressure"], np.nan)
+    branches = []
+    for Pb in P:
+        ok = np.isfinite(Pb)
+        if ok.sum() < 2:
+            return None
+        k = np.flatnonzero(ok)
+        k = k[np.argmin(Pb[k]):]                   # right of the pressure minimum
+        if k.size < 2 or np.any(np.diff(Pb[k]) <= 0) or np.any(np.diff(k) != 1):
+            return None
+        branches.append((Pb[k], grid[k]))
+    p_lo = max(b[0][0] for b in branches)
+    p_hi = min(b[0][-1] for b in branches)
+    if not p_lo < p_hi:
+        return None
+
+    def total(p):
+        return sum(np.interp(p, Pb, np.log(Vb)) for Pb, Vb in branches), \
+            np.array([np.exp(np.interp(p, Pb, np.log(Vb))) for Pb, Vb in branches])
+
+    if sum(np.exp(np.interp(p_lo, Pb, np.log(Vb))) for Pb, Vb in branches) > volume or \
+            sum(np.exp(np.interp(p_hi, Pb, np.log(Vb))) for Pb, Vb in branches) < volume:
+        return None
+    a, b = p_lo, p_hi
+    for _ in range(60):                             # bisection on the common pressure
+        m = 0.5 * (a + b)
+        if total(m)[1].sum() < volume:
+            a = m
+        else:
+            b = m
+    V = total(0.5 * (a + b))[1]
+    V *= volume / V.sum()
+    for _ in range(newton):
+        # P_b(V_b) = p for all b, sum V_b = volume: dV_b = (p - P_b)/s_b + dp/s_b
+        h = 1e-6 * V
+        q = doublet.predict(np.concatenate([gaps, gaps]), np.concatenate([V, V + h]), theta,
+                            variables=("pressure",))
+        if np.any(q["status"] != Status.CONVERGED):
+            return None
+        Pv, Ph = q["pressure"][:gaps.size], q["pressure"][gaps.size:]
+        slope = (Ph - Pv) / h
+        if np.any(slope <= 0):
+            return None
+        p = np.sum(Pv / slope) / np.sum(1 / slope) + (volume - V.sum()) / np.sum(1 / slope)
+        V = V + (p - Pv) / slope
+        if np.any(V < lo) or np.any(V > hi):
+            return None
+    return V
+
+
+def _frame(a, b):
+    """Orthonormal frames (k, 3, 3), rows e1 = a/|a|, e2 in the plane of a and b,
+    e3 = e1 x e2."""
+    e1 = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    n = np.cross(a, b)
+    e3 = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    return np.stack([e1, np.cross(e3, e1), e3], axis=-2)
+
+
+def triangle_centres(L01, L02, L12):
+    """Centres of three spheres with centre distances L01, L02, L12, in a local frame.
+
+    Grain 0 at the origin, grain 1 on +x, grain 2 in the xy plane (y >= 0).
+
+    Parameters
+    ----------
+    L01, L02, L12 : array_like (k,)
+        Centre-to-centre distances [any length unit].
+
+    Returns
+    -------
+    ndarray (k, 3, 3)
+        Centres (grain, xyz).
+    """
+    L01, L02, L12 = (np.asarray(x, float) for x in (L01, L02, L12))
+    x = (L01**2 + L02**2 - L12**2) / (2.0 * L01)        # law of cosines
+    y = np.sqrt(np.maximum(L02**2 - x**2, 0.0))
+    c = np.zeros(L01.shape + (3, 3))
+    c[..., 1, 0] = L01
+    c[..., 2, 0] = x
+    c[..., 2, 1] = y
+    return c
+
+
+def load_surrogate(table=None, coalescence_table=None):
+    """The triplet surrogate the engine uses: ``table`` (default the shipped
+    ``data/triplet_table.nc``) fitted with ``out_of_range="clip"`` (a volume ratio
+    outside the table is a status, not an exception) and with the dense coalescence
+    volumes ``coalescence_table`` (default ``triplet_coalescence.nc`` beside the table,
+    if it exists)."""
+    from pathlib import Path
+
+    from capbridge.surrogate.triplet import TripletSurrogate, default_table
+
+    path = Path(table) if table is not None else default_table()
+    if not path.exists():
+        raise CapbridgeInputError(f"triplet table {path} not found: give "
+                                  "triplet_table=... or triplet_forces=False")
+    coal = coalescence_table
+    if coal is None and (path.parent / "triplet_coalescence.nc").exists():
+        coal = path.parent / "triplet_coalescence.nc"
+    return TripletSurrogate(out_of_range="clip").fit(path, coalescence_table=coal)
+
+
+def set_bridge_volumes(model, rows, volumes):
+    """Give bridges ``rows`` of a :class:`~capbridge.dem.bridges.BridgeModel` new
+    volumes [m^3]: :meth:`BridgeModel.set_volumes` (kept as a function for callers)."""
+    model.set_volumes(rows, volumes)
+
+
+class LiquidClusters:
+    """Coalesced triplets of a packing: merge, triplet forces, split (module docstring).
+
+    Parameters
+    ----------
+    gamma : float
+        Surface tension [N/m].
+    surrogate : TripletSurrogate, optional
+        A fitted surrogate (tests); else one is fitted from ``table`` at the first merge
+        candidate (lazy).
+    table : path, optional
+        Triplet table (default the shipped ``data/triplet_table.nc``).
+    coalescence_table : path, optional
+        Dense coalescence volumes for the surrogate (default ``data/triplet_coalescence.nc``
+        when it exists).
+    split_solver : {"table", "exact", "merge_volumes"}
+        Shares of a split: ``"table"`` (default) equal Laplace pressure from the doublet
+        table's P*(d*, V*) (:func:`table_equal_pressure`: milliseconds, pressures equal
+        to the table's interpolation error); ``"exact"`` equal pressure from exact
+        doublets (:func:`~capbridge.tables.coalescence.separated_state`:
+        seconds per split); ``"merge_volumes"`` the merge-time volumes (no solve).
+    """
+
+    def __init__(self, gamma, surrogate=None, table=None, coalescence_table=None,
+                 split_solver="table"):
+        if split_solver not in SPLIT_SOLVERS:
+            raise CapbridgeInputError(f"split_solver={split_solver!r}: allowed "
+                                      f"{list(SPLIT_SOLVERS)}")
+        self.gamma = float(gamma)
+        self._sur = surrogate
+        self.table = table
+        self.coalescence_table = coalescence_table
+        self.split_solver = split_solver
+        self._doublet = None
+        self.events = {k: 0 for k in EVENTS}
+        self.timings = {"load_seconds": 0.0, "lookup_seconds": 0.0, "split_seconds": 0.0}
+        self.loads = 0
+        self._clear()
+        self.funicular = {"clusters": 0, "grains": 0, "volume": 0.0, "largest": 0}
+        self._funicular_keys = set()
+        self._refused_keys = set()
+        self.last = None
+        #: gravity on the liquid, set by the engine at every step: (g [m/s^2] (3,),
+        #: drho [kg/m^3]) or None (:meth:`gravity_forces`)
+        self.gravity = None
+        self.gravity_fallback = 0
+
+    def _clear(self):
+        self.grains = np.empty((0, 3), np.intp)        # sorted grain triple per cluster
+        self.members = np.empty((0, 3, 2), np.intp)    # bridge grain pairs, -1 padded
+        self.volume = np.empty(0)                      # cluster liquid [m^3]
+        self.born = np.empty(0, np.intp)
+        self.approx = np.empty(0, bool)
+
+    # ------------------------------------------------------------------ the table
+    @property
+    def loaded(self):
+        """True once a triplet table has been read (or a surrogate given)."""
+        return self._sur is not None
+
+    @property
+    def n(self):
+        return int(self.volume.size)
+
+    def surrogate(self):
+        """The triplet surrogate, fitted from the table at the first call (lazy)."""
+        if self._sur is None:
+            t0 = time.perf_counter()
+            self._sur = load_surrogate(self.table, self.coalescence_table)
+            self.loads += 1
+            self.timings["load_seconds"] += time.perf_counter() - t0
+        return self._sur
+
+    # --------------------------------------------------------------- lookups
+    @staticmethod
+    def _rows(model, pairs):
+        """Rows in the model of the bridges between grain pairs (k, 2); -1: none (or
+        a padding pair -1)."""
+        pairs = np.asarray(pairs, np.intp).reshape(-1, 2)
+        out = np.full(pairs.shape[0], -1, np.intp)
+        if model.n_bridges == 0 or pairs.shape[0] == 0:
+            return out
+        lo, hi = pairs.min(axis=1), pairs.max(axis=1)
+        keys = lo.astype(np.int64) * model.n + hi
+        order = np.argsort(model.keys, kind="stable")
+        sk = model.keys[order]
+        at = np.minimum(np.searchsorted(sk, keys), sk.size - 1)
+        found = (sk[at] == keys) & (lo >= 0)
+        out[found] = order[at[found]]
+        return out
+
+    def bridge_rows(self, model):
+        """Rows in the model of the bridges merged into the clusters (gravity on the
+        liquid: their doublet gravity part is replaced by the cluster's,
+        :meth:`gravity_forces`)."""
+        if not self.n:
+            return np.empty(0, np.intp)
+        rows = self._rows(model, self.members.reshape(-1, 2))
+        return rows[rows >= 0]
+
+    def lookup(self, model, pos, grains, volume):
+        """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
+
+        Gaps below zero (grains in contact overlap in a DEM) are taken as contact, as
+        the doublet bridges do.  Returns a dict: ``f`` (k, 3) pair forces [N] in the
+        order (0,1), (0,2), (1,2) of each triple (attraction > 0), ``status`` (k,),
+        ``lower`` (k,) lower-energy-state codes, ``u`` (k, 3, 3) unit vectors of the
+        pairs (actual centre lines), ``gaps`` (k, 3) [m].
+        """
+        t0 = time.perf_counter()
+        sur = self.surrogate()
+        k = grains.shape[0]
+        R = model.radii[grains]                                    # (k, 3)
+        P = ((0, 1), (0, 2), (1, 2))
+        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
+        dist = np.linalg.norm(d, axis=-1)
+        u = d / dist[..., None]
+        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
+        g = np.maximum(gaps, 0.0)
+        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
+        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
+        theta = model.theta[grains[:, 0]]
+        out = {"f": np.full((k, 3), np.nan), "status": np.full(k, Status.OUT_OF_RANGE, np.int8),
+               "lower": np.full(k, 3, np.int8), "u": u, "gaps": gaps}
+        # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
+        # predict_vectors also gives the lower-energy state
+        r = R.min(axis=1)
+        # clusters whose gaps (scaled as predict_vectors scales them) or angle are
+        # outside the table are OUT_OF_RANGE without a lookup
+        ask = np.flatnonzero(sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
+                                        radii=R / r[:, None]))
+        if ask.size:
+            try:
+                res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
+                                          theta[ask], radii=R[ask] / r[ask, None])
+            except CapbridgeInputError:
+                if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
+                    for c in ask:
+                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1])
+                        for key in ("f", "status", "lower"):
+                            out[key][c] = one[key][0]
+            else:
+                fs = force_scale(r[ask], self.gamma)
+                out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
+                    fs[:, None]
+                out["status"][ask] = res["status"]
+                out["lower"][ask] = res["lower_energy_state"]
+        self.timings["lookup_seconds"] += time.perf_counter() - t0
+        return out
+
+    def gravity_forces(self, model, pos):
+        """Gravity parts of the clusters' grain forces [N], (k, 3, 3) [cluster, grain,
+        xyz] in the scene frame.
+
+        With g and drho from :attr:`gravity` and b = Bo g_hat (Bo = drho |g| r^2 /
+        gamma, r the cluster's smallest radius), the triplet table's response
+        (:meth:`~capbridge.surrogate.triplet.TripletSurrogate.predict_vectors` with
+        ``bond`` and ``gravity``: F_i(b) - F_i(0) = Q (G_i b_t + C_i b_t^2 / 2), the
+        first- and diagonal second-order terms; they sum over the grains to the
+        liquid's weight drho V g up to the table's ``gravity_sum_residual``) at the
+        lookup geometry (:func:`triangle_centres` of the gaps, those below zero taken
+        as contact), rotated into the scene by the frame of the grains' centre lines
+        (grain 0 -> 1 and the plane of the three).  A cluster whose Bo is above the
+        surrogate's ``BOND_MAX`` or whose response has no number there gets the
+        liquid's weight shared equally by its three grains (the first-order answer for
+        three equal grains in an equilateral triangle; counted in
+        :attr:`gravity_fallback`); zero for a table without a gravity response.
+        """
+        from capbridge.surrogate.doublet import BOND_MAX
+
+        k = self.n
+        out = np.zeros((k, 3, 3))
+        if self.gravity is None or not k:
+            return out
+        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+        gn = float(np.linalg.norm(g_vec))
+        sur = self.surrogate()
+        if gn == 0.0 or drho == 0.0:
+            return out
+        if not getattr(sur, "has_gravity_", False):
+            self.gravity_fallback += k
+            return out
+        grains = self.grains
+        R = model.radii[grains]
+        P = ((0, 1), (0, 2), (1, 2))
+        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
+        dist = np.linalg.norm(d, axis=-1)
+        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
+        g = np.maximum(gaps, 0.0)
+        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
+        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
+        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
+        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
+        g_loc = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec))
+        r = R.min(axis=1)
+        bond = drho * gn * r**2 / self.gamma
+        use = np.flatnonzero(bond <= BOND_MAX)
+        part = np.zeros((k, 3, 3))
+        if use.size:
+            try:
+                res = sur.predict_vectors(C[use] / r[use, None, None],
+                                          self.volume[use] / r[use]**3,
+                                          model.theta[grains[use, 0]],
+                                          radii=R[use] / r[use, None], bond=bond[use],
+                                          gravity=g_loc[use])
+                part[use] = res["gravity_first_order"] + res["gravity_second_order"]
+            except CapbridgeInputError:
+                part[use] = np.nan
+        bad = ~np.all(np.isfinite(part), axis=(1, 2))
+        bad[np.setdiff1d(np.arange(k), use)] = True
+        # the weight is kept, shared equally: V*/(2 pi) b / 3 on each grain (F* of r)
+        b_loc = bond[bad, None] * g_loc[bad] / gn
+        part[bad] = (liquid_weight(self.volume[bad] / r[bad]**3)[:, None]
+                     * b_loc / 3.0)[:, None, :]
+        self.gravity_fallback += int(bad.sum())
+        part *= force_scale(r, self.gamma)[:, None, None]
+        # lookup frame -> scene frame, grain by grain
+        return np.einsum("kji,kgj->kgi", S, np.einsum("kij,kgj->kgi", T, part))
+
+    # ----------------------------------------------------------------- step
+    def step(self, model, pos, geom, report=None, step=0):
+        """One engine step (after ``model.update``): merge what ``report`` found,
+        look the clusters up, split those that left their domain, and put the triplet
+        forces in place of their bridges' doublet forces.
+
+        Parameters
+        ----------
+        model : BridgeModel
+        pos : (n, 3) grain centres [m].
+        geom : dict returned by ``model.update`` for ``pos`` (its ``force`` is edited:
+            bridges of a cluster get 0).
+        report : CoalescenceReport, optional
+            A detector report on the model's current bridges (a check this step).
+        step : int
+            DEM step (for the clusters' birth).
+
+        Returns
+        -------
+        dict
+            ``forces`` (n, 3) triplet forces on the grains [N] (to add to the doublet
+            sums), ``grains`` the grains they act on, ``geom`` the bridge geometry to
+            use (a new one from ``model.update(pos, form=False)`` if a split changed
+            volumes, else ``geom``), ``ruptured`` bridges ruptured by that update.
+        """
+        ruptured = 0
+        if self.n:
+            self._drop_lost(model)
+        if report is not None and report.n_triplets:
+            self._merge(model, pos, report, step)
+        elif report is not None:
+            self._note_funicular([])
+        forces = np.zeros((model.n, 3))
+        if not self.n:
+            self.last = None
+            return {"forces": forces, "grains": np.empty(0, np.intp), "geom": geom,
+                    "ruptured": 0}
+        res = self.lookup(model, pos, self.grains, self.volume)
+        ok = np.isin(res["status"], HAS_RESULT)
+        energy = ok & (res["lower"] == _SEPARATED)
+        geometry = ~ok
+        if geometry.any() or energy.any():
+            self.events["split_geometry"] += int(geometry.sum())
+            self.events["split_energy"] += int(energy.sum())
+            changed = self._split(model, pos, np.flatnonzero(geometry | energy))
+            if changed:
+                touched = model._touched.copy()
+                n0 = model.ledger["ruptured_count"]
+                geom = model.update(pos, step=step, form=False)
+                model._touched = np.concatenate([touched, model._touched])
+                ruptured = model.ledger["ruptured_count"] - n0
+            # the surviving clusters' bridges kept their volumes and gaps: the update
+            # cannot have ruptured them
+            keep = ok & ~energy
+            res = {k: v[keep] for k, v in res.items()}
+        if self.n:
+            rows = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
+            geom["force"][rows[rows >= 0]] = 0.0           # the triplet replaces them
+            fv = res["f"][..., None] * res["u"]            # (k, pair, xyz)
+            F = np.zeros((self.n, 3, 3))
+            for m, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
+                F[:, a] += fv[:, m]
+                F[:, b] -= fv[:, m]
+            if self.gravity is not None:
+                F += self.gravity_forces(model, pos)
+            np.add.at(forces, self.grains.ravel(), F.reshape(-1, 3))
+        self.last = {"status": res["status"], "f": res["f"], "gaps": res["gaps"]}
+        return {"forces": forces, "grains": np.unique(self.grains), "geom": geom,
+                "ruptured": ruptured}
+
+    # ----------------------------------------------------------------- merge
+    def _merge(self, model, pos, report, step):
+        """New clusters from a detector report (indices: the model's bridges)."""
+        bi, bj = model.bi, model.bj
+        have = set(map(tuple, self.members.reshape(-1, 2)[
+            self.members.reshape(-1, 2)[:, 0] >= 0].tolist()))
+        cand, funicular, triples, fun_rows = [], [], [], []
+        for c in report.clusters:
+            g = np.unique(np.concatenate([bi[c], bj[c]]))
+            if g.size >= 4:
+                funicular.append((g, float(model.vol[c].sum())))
+                fun_rows.append(c)
+            else:
+                triples.append(g)
+        if triples:
+            # every bridge among the three grains joins (a closed triangle): the rows of
+            # the three pairs of each triple, in one search
+            T = np.array(triples, np.intp)
+            rows = self._rows(model, np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]],
+                                              1).reshape(-1, 2)).reshape(-1, 3)
+            mixed = np.ptp(model.theta[T], axis=1) > 0
+            self.events["mixed_angle"] += int(mixed.sum())
+            for g, rw, mx in zip(T, rows, mixed):
+                b = rw[rw >= 0]
+                pairs = [(int(bi[x]), int(bj[x])) for x in b]
+                if mx or any(p in have for p in pairs):
+                    continue                          # mixed angles, or already merged
+                cand.append((g, pairs, float(model.vol[b].sum())))
+        self._note_funicular(funicular)
+        if funicular and self.n:
+            # merged triplets whose bridges joined a funicular cluster: released to
+            # their bridges (volumes unchanged, doublet forces)
+            rows = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
+            gone = np.isin(rows, np.concatenate(fun_rows)).any(axis=1)
+            self._remove(gone)
+        if not cand:
+            self._refused_keys = set()
+            return
+        grains = np.array([g for g, _, _ in cand], np.intp)
+        vol = np.array([v for _, _, v in cand])
+        res = self.lookup(model, pos, grains, vol)
+        ok = np.isin(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
+        # refused triplets are counted once, not at every check while they stay refused
+        refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
+        self.events["merge_refused"] += len(refused - self._refused_keys)
+        self._refused_keys = refused
+        for k in np.flatnonzero(ok):
+            g, pairs, v = cand[k]
+            mem = np.full((3, 2), -1, np.intp)
+            mem[:len(pairs)] = pairs
+            approx = bool(np.ptp(model.radii[g]) > 1e-12 * model.radii[g].max())
+            self.grains = np.vstack([self.grains, g[None]])
+            self.members = np.concatenate([self.members, mem[None]])
+            self.volume = np.append(self.volume, v)
+            self.born = np.append(self.born, step)
+            self.approx = np.append(self.approx, approx)
+            self.events["merged"] += 1
+            self.events["approximate"] += int(approx)
+
+    def _note_funicular(self, funicular):
+        """Count new >= 4-grain clusters (once each) and keep the current ones' sizes."""
+        keys = {tuple(g.tolist()) for g, _ in funicular}
+        self.events["funicular_fallback"] += len(keys - self._funicular_keys)
+        self._funicular_keys = keys
+        self.funicular = {"clusters": len(funicular),
+                          "grains": int(sum(g.size for g, _ in funicular)),
+                          "volume": float(sum(v for _, v in funicular)),
+                          "largest": int(max((g.size for g, _ in funicular), default=0))}
+
+    # ----------------------------------------------------------------- split
+    def _remove(self, mask):
+        keep = ~np.asarray(mask, bool)
+        self.grains, self.members = self.grains[keep], self.members[keep]
+        self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
+            self.approx[keep]
+
+    def _drop_lost(self, model):
+        """Clusters whose bridge is gone (doublet rupture, erased grain): dissolved."""
+        rows = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
+        lost = ((rows < 0) & (self.members[..., 0] >= 0)).any(axis=1)
+        if lost.any():
+            self.events["dissolved"] += int(lost.sum())
+            self._remove(lost)
+
+    def _split(self, model, pos, which):
+        """Split clusters ``which`` into their bridges at equal pressure (module
+        docstring); returns True if bridge volumes changed."""
+        t0 = time.perf_counter()
+        changed = False
+        for c in which:
+            mem = self.members[c][self.members[c][:, 0] >= 0]
+            rows = self._rows(model, mem)
+            vols = self._shares(model, pos, self.grains[c], mem, model.vol[rows])
+            if vols is None:
+                self.events["split_share_fallback"] += 1
+            else:
+                model.set_volumes(rows, vols)
+                changed = True
+        self._remove(np.isin(np.arange(self.n), which))
+        self.timings["split_seconds"] += time.perf_counter() - t0
+        return changed
+
+    def _shares(self, model, pos, grains, members, merge_vols):
+        """Equal-pressure volumes [m^3] of the bridges ``members`` sharing the liquid
+        of the cluster (their sum is exactly the cluster volume: the last share is the
+        remainder), or None when they cannot be solved (then the merge-time volumes
+        stay)."""
+        if self.split_solver == "merge_volumes":
+            return None
+        R = model.radii[grains]
+        theta = float(model.theta[grains[0]])
+        if np.ptp(R) > 1e-12 * R.max() or not 0.0 <= theta < 90.0:
+            return None                  # equal-pressure shares are for equal spheres
+        r = float(R[0])
+        P = ((0, 1), (0, 2), (1, 2))
+        where = {int(g): k for k, g in enumerate(grains)}
+        local = tuple(tuple(sorted((where[int(a)], where[int(b)]))) for a, b in members)
+        d = [np.linalg.norm(model.pair_vectors(pos, grains[[a]], grains[[b]])[0]) - 2 * r
+             for a, b in P]
+        g = [max(x, 0.0) / r for x in d]
+        V = float(merge_vols.sum())
+        lo, hi = model.table.vstar_range
+        if self.split_solver == "table":
+            v = table_equal_pressure(self.doublet_surrogate(), [g[P.index(b)] for b in local],
+                                     V / r**3, theta, (lo, hi))
+            if v is None:
+                return None
+            v = v * r**3
+        else:
+            from capbridge.tables.coalescence import separated_state
+            try:
+                s = separated_state(*g, V / r**3, theta, local)
+            except (CapbridgeInputError, ValueError):
+                return None
+            if s["status"] != Status.CONVERGED:
+                return None
+            v = np.array([s["volumes"][b] for b in local]) * r**3
+        if not np.all(np.isfinite(v) & (v > 0)):
+            return None
+        if np.any(v < lo * r**3) or np.any(v > hi * r**3):
+            return None                  # outside the doublet table: keep merge volumes
+        v[-1] = V - v[:-1].sum()         # exact total
+        return v
+
+    def doublet_surrogate(self):
+        """The doublet surrogate for the "table" split (the shipped doublet table,
+        fitted at the first split)."""
+        if self._doublet is None:
+            from capbridge.dem.bridges import default_table_path
+            from capbridge.surrogate.doublet import DoubletSurrogate
+
+            t0 = time.perf_counter()
+            self._doublet = DoubletSurrogate().fit(default_table_path())
+            self.timings["load_seconds"] += time.perf_counter() - t0
+        return self._doublet
+
+    # --------------------------------------------------------------- reporting
+    def report(self):
+        """JSON-friendly summary: events, current clusters, funicular clusters, table."""
+        out = {"events": dict(self.events), "clusters": self.n,
+               "cluster_volume": float(self.volume.sum()), "approximate_clusters":
+               int(self.approx.sum()), "funicular": dict(self.funicular),
+               "table_loaded": self.loaded, "table_loads": self.loads,
+               "timings": dict(self.timings)}
+        out["born"] = self.born.tolist()            # DEM step of each cluster's merge
+        out["gravity_fallback"] = self.gravity_fallback
+        if self.last is not None and self.n:
+            out["statuses"] = [Status(int(s)).name.lower() for s in self.last["status"]]
+        return out
+
+    def remap(self, new_index):
+        """Grains were erased (``BridgeModel.drop_grains`` returned ``new_index``):
+        clusters on a removed grain dissolve, the others are renumbered."""
+        new_index = np.asarray(new_index, np.intp)
+        if not self.n:
+            return
+        gone = (new_index[self.grains] < 0).any(axis=1)
+        self.events["dissolved"] += int(gone.sum())
+        self._remove(gone)
+        m = self.members
+        self.grains = new_index[self.grains]
+        self.members = np.where(m >= 0, new_index[np.maximum(m, 0)], -1)
+
+    # ----------------------------------------------------------- save / restore
+    def get_state(self):
+        """Clusters and counters, for the engine's saved state (register_state)."""
+        return {"grains": self.grains.copy(), "members": self.members.copy(),
+                "volume": self.volume.copy(), "born": self.born.copy(),
+                "approx": self.approx.copy(), "events": dict(self.events),
+                "funicular": dict(self.funicular),
+                "funicular_keys": [list(k) for k in sorted(self._funicular_keys)],
+                "refused_keys": [list(k) for k in sorted(self._refused_keys)]}
+
+    def set_state(self, st):
+        """Continue from :meth:`get_state` (the table is loaded again only when needed)."""
+        self.grains = np.asarray(st["grains"], np.intp).reshape(-1, 3)
+        self.members = np.asarray(st["members"], np.intp).reshape(-1, 3, 2)
+        self.volume = np.asarray(st["volume"], float).ravel()
+        self.born = np.asarray(st["born"], np.intp).ravel()
+        self.approx = np.asarray(st["approx"], bool).ravel()
+        self.events.update({k: int(v) for k, v in st["events"].items()})
+        self.funicular = dict(st["funicular"])
+        self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
+        self._refused_keys = {tuple(k) for k in st.get("refused_keys", [])}

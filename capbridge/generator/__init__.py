@@ -1,1 +1,0 @@
-"""Solvers and gridded sweeps that generate the capillary-force tables."""
