@@ -327,10 +327,6 @@ def cmd_info_table(args):
               f"({ds[name].attrs.get('long_name', '')})")
     st = ds["status"].values
     print(f"  points: {st.size}, converged: {int((st == 0).sum())}")
-    print("  error model (surrogate vs exact, held-out points):")
-    for k, v in sorted(ds.attrs.items()):
-        if k.startswith("holdout_") and k != "holdout_description":
-            print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
     _print_holdout(ds)
     _info_doublet_gravity(ds)
     return 0

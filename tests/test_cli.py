@@ -107,3 +107,34 @@ def test_solve_doublet_suction_control(capsys):
     assert sx["V"] == pytest.approx(0.05, rel=1e-8) and sx["F"] == pytest.approx(vol["F"], rel=1e-8)
     code, _, err = run(["solve", "doublet", "--d", "0.1", "--theta", "30"], capsys)
     assert code != 0 and "exactly one of --V" in err
+
+
+# ------------------------------------------------- issue 16, item 6: smaller CLI defects
+
+def run_exit(args, capsys):
+    """``run`` for errors argparse reports (SystemExit): (exit code, stdout, stderr)."""
+    try:
+        code = main(args)
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def _one_error_line(err):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("capbridge: error:"), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def test_info_shows_the_doublet_error_model_once(capsys):
+    from capbridge.cli import DEFAULT_TABLE
+
+    code, out, _ = run(["info", "--table", str(DEFAULT_TABLE)], capsys)
+    assert code == 0
+    keys = [ln.split(":")[0].strip() for ln in out.splitlines()
+            if ln.strip().startswith("holdout_")]
+    assert "holdout_max_rel_error_force_ratio1_band0" in keys
+    assert len(keys) == len(set(keys)), "error model printed twice"
+    assert out.count("error model") == 1
