@@ -128,6 +128,26 @@ def _one_error_line(err):
     return lines[0]
 
 
+@pytest.mark.parametrize("argv", [
+    ["solve", "triplet", "--d12", "0.1", "--d13", "0.1", "--d23", "0.1", "--V", "0.3",
+     "--theta", "60"],
+    # gravity off the axis: Surface Evolver, whose minimum refinement is 2
+    ["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30", "--bond", "0.5",
+     "--gravity", "0,0,-1"],
+])
+def test_solve_refuses_max_refine_below_two_up_front(argv, capsys):
+    """Level 1 alone has no error estimate (triplet: forces 5 % off with
+    force_error_rel null; doublet off the axis: always not_converged): refused in one
+    line naming the value and the range, before any Evolver run."""
+    code, out, err = run_exit(argv + ["--max-refine", "1"], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and out == ""
+    assert "--max-refine" in line and "1 is outside the allowed range [2, 6]" in line
+    from capbridge.cli import build_parser
+
+    assert build_parser().parse_args(argv + ["--max-refine", "2"]).max_refine == 2
+
+
 def test_info_shows_the_doublet_error_model_once(capsys):
     from capbridge.cli import DEFAULT_TABLE
 
