@@ -611,7 +611,7 @@ def cmd_generate_triplet(args):
     ds = build_triplet_table(grid, n_holdout=args.holdout, checkpoint_dir=args.checkpoint_dir,
                              n_jobs=args.jobs, scheduler=args.scheduler,
                              progress=not args.no_progress, command=command,
-                             gravity=gravity)
+                             gravity=gravity, worker_timeout=args.worker_timeout)
     coal = args.coalescence_table
     if coal is None and DEFAULT_COALESCENCE_TABLE.exists() and not args.quick:
         coal = DEFAULT_COALESCENCE_TABLE
@@ -931,6 +931,8 @@ def build_parser():
     gt.add_argument("--jobs", type=_number(1, 4096, integer=True), default=None,
                     help="worker processes (default: all cores)")
     gt.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    gt.add_argument("--worker-timeout", type=_number(0, np.inf, low_open=True), default=600.0,
+                    help="Dask: seconds without any worker before the sweep fails (default 600)")
     gt.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
     gt.add_argument("--holdout", type=_number(0, 10**5, integer=True), default=12,
                     help="held-out Evolver points one level finer, for the error model")

@@ -158,3 +158,28 @@ def test_info_shows_the_doublet_error_model_once(capsys):
     assert "holdout_max_rel_error_force_ratio1_band0" in keys
     assert len(keys) == len(set(keys)), "error model printed twice"
     assert out.count("error model") == 1
+
+
+@pytest.mark.parametrize("what", ["doublet", "triplet", "coalescence"])
+def test_worker_timeout_on_every_generate_with_a_scheduler(what, tmp_path, capsys):
+    """--worker-timeout on every `generate` that takes --scheduler: with no Dask worker
+    the sweep fails its chunks after that many seconds (exit 3, one line, no table)."""
+    import time
+
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / f"{what}.nc"
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=None) as cluster:
+        t0 = time.monotonic()
+        code, _, err = run(["generate", what, "--quick", "--no-progress", "--output",
+                            str(out), "--scheduler", cluster.scheduler_address,
+                            "--worker-timeout", "2"], capsys)
+        waited = time.monotonic() - t0
+    assert code == 3, err
+    assert 2.0 <= waited < 60
+    line = [ln for ln in err.splitlines() if ln.startswith("capbridge: error:")]
+    assert len(line) == 1 and "chunks failed" in line[0] and "rerun" in line[0]
+    assert "Traceback" not in err and not out.exists()
+    code, _, err = run_exit(["generate", what, "--quick", "--worker-timeout", "0"], capsys)
+    assert code == 2 and "--worker-timeout" in _one_error_line(err)
+    assert "0.0 is outside the allowed range (0, inf)" in err

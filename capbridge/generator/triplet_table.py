@@ -47,7 +47,7 @@ import xarray as xr
 
 from capbridge.dimensionless import canonical_triplet
 from capbridge.generator.netcdf_io import write_table
-from capbridge.generator.sweep import run_sweep
+from capbridge.generator.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.generator.triplet_gravity import (GravityPlan, gravity_chunk,
                                                  gravity_holdout_chunk,
                                                  rotate_gravity_tensor, stack_tensors)
@@ -355,8 +355,8 @@ def _holdout_points(grid, n, seed):
 def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
                         n_holdout=0, checkpoint_dir=None, n_jobs=None, scheduler=None,
                         progress=True, command=None, seed=1,
-                        exact_only=False, gravity: GravityPlan | None = None
-                        ) -> xr.Dataset | None:
+                        exact_only=False, gravity: GravityPlan | None = None,
+                        worker_timeout=DASK_WORKER_TIMEOUT) -> xr.Dataset | None:
     """Run the sweep (resumable) and return the table as a labelled Dataset.
 
     Phases: exact coalescence volumes of the canonical geometries; the coalesced body
@@ -366,6 +366,7 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     ``gravity``: also the response of the forces to gravity on the liquid on the
     plan's sub-grid of v, and its held-out checks against direct minimisations with
     gravity (:mod:`capbridge.generator.triplet_gravity`).
+    ``worker_timeout``: Dask, see :func:`~capbridge.generator.sweep.run_sweep`.
     ``exact_only``: run the exact phases (coalescence volumes, separated-state
     energies) into the checkpoints and return None, e.g. beside a running Evolver
     sweep on the same checkpoint directory.
@@ -380,7 +381,7 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
         ck = None if checkpoint_dir is None else f"{checkpoint_dir}/{name}"
         res = run_sweep(fn, inputs, checkpoint_dir=ck, chunk_size=chunk_size, n_jobs=n_jobs,
                         scheduler=scheduler, progress=progress, desc=name,
-                        settings=settings)
+                        settings=settings, worker_timeout=worker_timeout)
         return res.raise_if_failed()
 
     G, T = np.repeat(canon, nt, axis=0), np.tile(theta, nc)
