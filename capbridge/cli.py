@@ -934,10 +934,10 @@ def build_parser():
                         "netCDF table (hours; resumable)")
     gt.add_argument("--output", default=str(DEFAULT_TRIPLET_TABLE))
     gt.add_argument("--quick", action="store_true",
-                    help="small grid (tests, about 2 minutes on 2 cores): 16 points at "
-                         "Evolver level 2 (status above_tolerance: ~3 %% estimated force "
-                         "error), the gravity response at level 1, 2 held-out points, "
-                         "one held-out gravity case")
+                    help="small grid (tests; ~4.5 CPU minutes, 2-4 minutes on 2 cores): "
+                         "16 points at Evolver level 2 (status above_tolerance: ~3 %% "
+                         "estimated force error), the gravity response at level 1, 2 "
+                         "held-out points, one held-out gravity case")
     gt.add_argument("--overwrite", action="store_true",
                     help="replace an existing --output of another grid")
     gt.add_argument("--jobs", type=_number(1, 4096, integer=True), default=None,
