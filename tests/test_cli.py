@@ -107,3 +107,79 @@ def test_solve_doublet_suction_control(capsys):
     assert sx["V"] == pytest.approx(0.05, rel=1e-8) and sx["F"] == pytest.approx(vol["F"], rel=1e-8)
     code, _, err = run(["solve", "doublet", "--d", "0.1", "--theta", "30"], capsys)
     assert code != 0 and "exactly one of --V" in err
+
+
+# ------------------------------------------------- issue 16, item 6: smaller CLI defects
+
+def run_exit(args, capsys):
+    """``run`` for errors argparse reports (SystemExit): (exit code, stdout, stderr)."""
+    try:
+        code = main(args)
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def _one_error_line(err):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("capbridge: error:"), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+@pytest.mark.parametrize("argv", [
+    ["solve", "triplet", "--d12", "0.1", "--d13", "0.1", "--d23", "0.1", "--V", "0.3",
+     "--theta", "60"],
+    # gravity off the axis: Surface Evolver, whose minimum refinement is 2
+    ["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30", "--bond", "0.5",
+     "--gravity", "0,0,-1"],
+])
+def test_solve_refuses_max_refine_below_two_up_front(argv, capsys):
+    """Level 1 alone has no error estimate (triplet: forces 5 % off with
+    force_error_rel null; doublet off the axis: always not_converged): refused in one
+    line naming the value and the range, before any Evolver run."""
+    code, out, err = run_exit(argv + ["--max-refine", "1"], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and out == ""
+    assert "--max-refine" in line and "1 is outside the allowed range [2, 6]" in line
+    from capbridge.cli import build_parser
+
+    assert build_parser().parse_args(argv + ["--max-refine", "2"]).max_refine == 2
+
+
+def test_info_shows_the_doublet_error_model_once(capsys):
+    from capbridge.cli import DEFAULT_TABLE
+
+    code, out, _ = run(["info", "--table", str(DEFAULT_TABLE)], capsys)
+    assert code == 0
+    keys = [ln.split(":")[0].strip() for ln in out.splitlines()
+            if ln.strip().startswith("holdout_")]
+    assert "holdout_max_rel_error_force_ratio1_band0" in keys
+    assert len(keys) == len(set(keys)), "error model printed twice"
+    assert out.count("error model") == 1
+
+
+@pytest.mark.parametrize("what", ["doublet", "triplet", "coalescence"])
+def test_worker_timeout_on_every_generate_with_a_scheduler(what, tmp_path, capsys):
+    """--worker-timeout on every `generate` that takes --scheduler: with no Dask worker
+    the sweep fails its chunks after that many seconds (exit 3, one line, no table)."""
+    import time
+
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / f"{what}.nc"
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=None) as cluster:
+        t0 = time.monotonic()
+        code, _, err = run(["generate", what, "--quick", "--no-progress", "--output",
+                            str(out), "--scheduler", cluster.scheduler_address,
+                            "--worker-timeout", "2"], capsys)
+        waited = time.monotonic() - t0
+    assert code == 3, err
+    assert 2.0 <= waited < 60
+    line = [ln for ln in err.splitlines() if ln.startswith("capbridge: error:")]
+    assert len(line) == 1 and "chunks failed" in line[0] and "rerun" in line[0]
+    assert "Traceback" not in err and not out.exists()
+    code, _, err = run_exit(["generate", what, "--quick", "--worker-timeout", "0"], capsys)
+    assert code == 2 and "--worker-timeout" in _one_error_line(err)
+    assert "0.0 is outside the allowed range (0, inf)" in err

@@ -369,7 +369,7 @@ def test_every_keyword_has_its_rule_and_its_row_in_the_docs():
     assert set(ctor) == set(ENGINE_PARAMETERS) == set(OPTION_RULES) and len(ctor) == 28
     assert all(ENGINE_PARAMETERS[k][0] == d for k, d in ctor.items())
     rows = {}
-    for line in DOCS.read_text().splitlines():
+    for line in DOCS.read_text(encoding="utf-8").splitlines():
         m = re.match(r"\| `(\w+)` \| (.*?) \| (.*) \| (.*) \|$", line)
         if m and m.group(1) in ctor:
             rows[m.group(1)] = m.group(4)

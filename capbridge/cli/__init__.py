@@ -329,10 +329,6 @@ def cmd_info_table(args):
               f"({ds[name].attrs.get('long_name', '')})")
     st = ds["status"].values
     print(f"  points: {st.size}, converged: {int((st == 0).sum())}")
-    print("  error model (surrogate vs exact, held-out points):")
-    for k, v in sorted(ds.attrs.items()):
-        if k.startswith("holdout_") and k != "holdout_description":
-            print(f"    {k}: {v:.3g}" if isinstance(v, float) else f"    {k}: {v}")
     _print_holdout(ds)
     _info_doublet_gravity(ds)
     return 0
@@ -408,6 +404,10 @@ def _info_triplet_gravity(ds, path):
                               h["max_effect_error_by_bond"], h["n_cases_by_bond"]):
             print(f"      Bo = {b:<5g} max error {e:.3g}, of the gravity effect alone {f:.3g}"
                   f" (relative to the largest grain force; {n} cases answered)")
+    skipped = int(ds.attrs.get("gravity_holdout_cases_skipped", 0))
+    if skipped:
+        print(f"    {skipped} held-out gravity case(s) outside the table's grid: skipped "
+              "(not computed, not in the error model)")
 
 
 def _print_header(ds, path, axes):
@@ -596,28 +596,32 @@ def cmd_solve_triplet(args):
     return 0 if r["status_code"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
 
 
+#: held-out Evolver points of `generate triplet` by default (full, --quick)
+TRIPLET_HOLDOUT = {False: 12, True: 2}
+
+
 def cmd_generate_triplet(args):
     from capbridge.tables.netcdf_io import check_table_target
     from capbridge.tables.triplet_gravity import GravityPlan
-    from capbridge.tables.triplet import (TripletGrid, build_triplet_table,
-                                                   save_triplet_table)
+    from capbridge.tables.triplet import (EvolverPlan, TripletGrid,
+                                                   build_triplet_table, save_triplet_table,
+                                                   table_axes)
     from capbridge.surrogate.triplet import TripletSurrogate, holdout_errors
 
     grid = TripletGrid.shipped(args.quick)
+    plan = EvolverPlan.shipped(args.quick)
     gravity = GravityPlan.shipped(args.quick)
-    axes = {"d12": grid.gaps, "d13": grid.gaps, "d23": grid.gaps, "theta": grid.theta,
-            "v": grid.v, "grain": (1, 2, 3), "component": (0, 1, 2),
-            "holdout": list(range(args.holdout)), "gravity_v": gravity.v,
-            "gravity_component": (0, 1, 2),
-            "gravity_holdout": list(range(len(gravity.cases) * len(gravity.bonds)))}
+    if args.holdout is None:
+        args.holdout = TRIPLET_HOLDOUT[bool(args.quick)]
     # before hours of Evolver: can the table be written, would it replace another grid?
-    check_table_target(args.output, {k: list(map(float, v)) for k, v in axes.items()},
+    check_table_target(args.output, table_axes(grid, args.holdout, gravity),
                        overwrite=args.overwrite, flag="--overwrite")
     command = args.command or _command_line(args)
-    ds = build_triplet_table(grid, n_holdout=args.holdout, checkpoint_dir=args.checkpoint_dir,
-                             n_jobs=args.jobs, scheduler=args.scheduler,
-                             progress=not args.no_progress, command=command,
-                             gravity=gravity)
+    ds = build_triplet_table(grid, plan=plan, n_holdout=args.holdout,
+                             checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
+                             scheduler=args.scheduler, progress=not args.no_progress,
+                             command=command, gravity=gravity,
+                             worker_timeout=args.worker_timeout)
     coal = args.coalescence_table
     if coal is None and DEFAULT_COALESCENCE_TABLE.exists() and not args.quick:
         coal = DEFAULT_COALESCENCE_TABLE
@@ -795,8 +799,9 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def _number(low=-np.inf, high=np.inf, low_open=False, integer=False):
-    """argparse type: a finite number in [low, high] (``low_open``: (low, high])."""
+def _number(low=-np.inf, high=np.inf, low_open=False, integer=False, hint=""):
+    """argparse type: a finite number in [low, high] (``low_open``: (low, high]);
+    ``hint`` ends the message of a value outside the range (why the range)."""
     def parse(text):
         try:
             v = int(text) if integer else float(text)
@@ -805,9 +810,16 @@ def _number(low=-np.inf, high=np.inf, low_open=False, integer=False):
             raise argparse.ArgumentTypeError(f"{text!r} is not {kind}") from None
         if not np.isfinite(v) or v < low or v > high or (low_open and v == low):
             raise argparse.ArgumentTypeError(
-                f"{v!r} is outside the allowed range {interval_text(low, high, low_open)}")
+                f"{v!r} is outside the allowed range {interval_text(low, high, low_open)}"
+                + (f" ({hint})" if hint else ""))
         return v
     return parse
+
+
+#: --max-refine of the Evolver solves: level 2 at least (below, no error estimate)
+EVOLVER_REFINE = (2, 6)
+_REFINE_HINT = ("Surface Evolver results need level 2 at least: the error estimate "
+                "compares the forces of levels 1 and 2")
 
 
 def build_parser():
@@ -833,8 +845,10 @@ def build_parser():
                          "grain 1 at the origin, grain 2 on +x.  Along the axis (+-1,0,0): "
                          "the exact axisymmetric solver; any other direction: Surface "
                          "Evolver (much slower)")
-    sd.add_argument("--max-refine", type=_number(1, 6, integer=True), default=3,
-                    help="Evolver refinement level (only for --gravity off the axis)")
+    sd.add_argument("--max-refine", type=_number(*EVOLVER_REFINE, integer=True,
+                                                 hint=_REFINE_HINT), default=3,
+                    help="Evolver refinement level in [2, 6] (only for --gravity off the "
+                         "axis; below 2 there is no error estimate, so it is refused)")
     sd.set_defaults(func=cmd_solve_doublet)
     st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
                           "liquid body on three equal spheres (JSON out)")
@@ -843,8 +857,11 @@ def build_parser():
     st.add_argument("--d23", type=float, required=True, help="gap between grains 2 and 3, d/r")
     st.add_argument("--V", type=float, required=True, help="total volume V* = V/r^3")
     st.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
-    st.add_argument("--max-refine", type=_number(1, 6, integer=True), default=3,
-                    help="finest Evolver refinement level (default 3, as the table)")
+    st.add_argument("--max-refine", type=_number(*EVOLVER_REFINE, integer=True,
+                                                 hint=_REFINE_HINT), default=3,
+                    help="finest Evolver refinement level in [2, 6] (default 3, as the "
+                         "table); level 1 alone has no error estimate (forces ~5 %% off), "
+                         "so it is refused")
     st.add_argument("--bond", type=float, default=None, metavar="BO",
                     help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 5]")
     st.add_argument("--gravity", default=None, metavar="X,Y,Z",
@@ -918,15 +935,23 @@ def build_parser():
     gt = gen.add_parser("triplet", help="Surface Evolver sweep of coalesced triplets into a "
                         "netCDF table (hours; resumable)")
     gt.add_argument("--output", default=str(DEFAULT_TRIPLET_TABLE))
-    gt.add_argument("--quick", action="store_true", help="small grid (tests)")
+    gt.add_argument("--quick", action="store_true",
+                    help="small grid (tests; ~4.5 CPU minutes, 2-4 minutes on 2 cores): "
+                         "16 points at Evolver level 2 (status above_tolerance: ~3 %% "
+                         "estimated force error), the gravity response at level 1, 2 "
+                         "held-out points, one held-out gravity case")
     gt.add_argument("--overwrite", action="store_true",
                     help="replace an existing --output of another grid")
     gt.add_argument("--jobs", type=_number(1, 4096, integer=True), default=None,
                     help="worker processes (default: all cores)")
     gt.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    gt.add_argument("--worker-timeout", type=_number(0, np.inf, low_open=True), default=600.0,
+                    help="Dask: seconds without any worker before the sweep fails (default 600)")
     gt.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
-    gt.add_argument("--holdout", type=_number(0, 10**5, integer=True), default=12,
-                    help="held-out Evolver points one level finer, for the error model")
+    gt.add_argument("--holdout", type=_number(0, 10**5, integer=True), default=None,
+                    help="held-out Evolver points one level finer, for the error model "
+                         f"(default {TRIPLET_HOLDOUT[False]}, with --quick "
+                         f"{TRIPLET_HOLDOUT[True]})")
     gt.add_argument("--coalescence-table", default=None,
                     help="exact V_coal table for the error model (default the shipped one)")
     gt.add_argument("--no-progress", action="store_true")

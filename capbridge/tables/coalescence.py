@@ -68,14 +68,14 @@ import xarray as xr
 from scipy.optimize import brentq, minimize_scalar
 
 from capbridge.tables.netcdf_io import write_table
-from capbridge.tables.sweep import run_sweep
+from capbridge.tables.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.solvers.triplet import (CRITERIA, find_coalescence, parse_bridges,
                                          triplet_geometry, uncoalesced_state)
 from capbridge.solvers.young_laplace import (SolverSettings, solve_doublet,
                                                solve_doublet_suction)
 from capbridge.status import Status, cf_flag_attributes
 from capbridge.physics.coalescence_fit import CoalescenceVolumeFit
-from capbridge.validation import CapbridgeInputError, check_range
+from capbridge.validation import CapbridgeInputError, check_range, interval_text
 
 __all__ = [
     "separated_state",
@@ -550,7 +550,8 @@ def _error_summary(err):
 
 
 def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, scheduler=None,
-                            progress=True, command=None, chunk_size=4):
+                            progress=True, command=None, chunk_size=4,
+                            worker_timeout=DASK_WORKER_TIMEOUT):
     """Coalescence volumes V_coal(d12, d13, d23, theta) over a grid, as a Dataset.
 
     Per configuration (``pair``: bridges 12 and 13 on grain 1, ``ring``: 12, 13, 23),
@@ -564,7 +565,7 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
     ----------
     grid : CoalescenceGrid, optional
         Default: :meth:`CoalescenceGrid.shipped`.
-    checkpoint_dir, n_jobs, scheduler, progress
+    checkpoint_dir, n_jobs, scheduler, progress, worker_timeout
         As in :func:`~capbridge.tables.sweep.run_sweep`.
     command : str, optional
         The command recorded in the table.
@@ -612,7 +613,11 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
                         checkpoint_dir=None if checkpoint_dir is None
                         else Path(checkpoint_dir) / c,
                         chunk_size=chunk_size, n_jobs=n_jobs, scheduler=scheduler,
-                        progress=progress, desc=f"V_coal {c}", settings=_settings(grid, c))
+                        progress=progress, desc=f"V_coal {c}", settings=_settings(grid, c),
+                        worker_timeout=worker_timeout)
+        # as every generator: nothing is computed from the placeholders of failed
+        # chunks (SweepFailedError: "N of M chunks failed ...; rerun", exit 3)
+        res.raise_if_failed()
         failed += len(res.failures)
         ds.attrs[f"chunks_{c}"] = _json({"computed": len(res.computed),
                                          "reused_from_checkpoints": len(res.reused),
@@ -707,6 +712,9 @@ def add_arguments(p):
     p.add_argument("--quick", action="store_true", help="tiny grid (tests)")
     p.add_argument("--jobs", type=int, default=None, help="worker processes (default: all cores)")
     p.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
+    p.add_argument("--worker-timeout", type=_seconds, default=DASK_WORKER_TIMEOUT,
+                   help="Dask: seconds without any worker before the sweep fails (default "
+                        f"{DASK_WORKER_TIMEOUT:g})")
     p.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
     p.add_argument("--output", default=None,
                    help="netCDF file (default data/triplet_coalescence.nc, "
@@ -715,6 +723,18 @@ def add_arguments(p):
                    help="replace an existing --output of another grid")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     return p
+
+
+def _seconds(text):
+    """argparse type of ``--worker-timeout``: a finite number of seconds > 0."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not np.isfinite(v) or v <= 0:
+        raise argparse.ArgumentTypeError(
+            f"{v!r} is outside the allowed range {interval_text(0, np.inf, low_open=True)}")
+    return v
 
 
 def _table_grid(grid):
@@ -730,8 +750,9 @@ def run_from_args(args, command=None):
     """Build and write the table from parsed :func:`add_arguments` options.
 
     The output is checked before computing (directory, and no other file or table of
-    another grid replaced without ``--overwrite``).  Returns the exit code (1 if some
-    chunks failed: rerun with the same ``--checkpoint-dir`` to retry them).
+    another grid replaced without ``--overwrite``).  Returns the exit code 0; if some
+    chunks failed, :class:`~capbridge.tables.sweep.SweepFailedError` (no table is
+    written; rerun with the same ``--checkpoint-dir`` to retry them).
     """
     from capbridge.tables.netcdf_io import check_table_target
 
@@ -745,17 +766,16 @@ def run_from_args(args, command=None):
     t0 = time.perf_counter()
     ds = build_coalescence_table(grid, checkpoint_dir=args.checkpoint_dir, n_jobs=args.jobs,
                                  scheduler=args.scheduler, progress=not args.no_progress,
-                                 command=command)
+                                 command=command, worker_timeout=args.worker_timeout)
     # with chunks reused from checkpoints (attributes chunks_<configuration>) this is
     # the time of the last run only; cpu_seconds_per_point_<configuration> is the cost
     ds.attrs["wall_seconds_of_this_run"] = round(time.perf_counter() - t0, 1)
     save_coalescence_table(ds, out, command=command, overwrite=args.overwrite)
-    bad = int(ds.attrs["n_failed_chunks"])
-    print(f"wrote {out}" + (f" ({bad} failed chunks: rerun to retry)" if bad else ""))
+    print(f"wrote {out}")
     for c in grid.configurations:
         print(f"{c}: CPU s per point {ds.attrs[f'cpu_seconds_per_point_{c}']}")
         print(f"{c}: interpolation error {ds.attrs[f'interpolation_error_{c}']}")
-    return 1 if bad else 0
+    return 0
 
 
 def main(argv=None):
@@ -765,11 +785,16 @@ def main(argv=None):
     argv = sys.argv[1:] if argv is None else list(argv)
     args = p.parse_args(argv)
     command = " ".join([p.prog] + [shlex.quote(a) for a in argv])
+    from capbridge.tables.sweep import SweepFailedError
+
     try:
         return run_from_args(args, command=command)
     except CapbridgeInputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except SweepFailedError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 3
 
 
 if __name__ == "__main__":

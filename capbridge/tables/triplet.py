@@ -39,6 +39,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import logging
 import shlex
 import sys
 
@@ -47,14 +48,17 @@ import xarray as xr
 
 from capbridge.dimensionless import canonical_triplet
 from capbridge.tables.netcdf_io import write_table
-from capbridge.tables.sweep import run_sweep
+from capbridge.tables.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.tables.triplet_gravity import (GravityPlan, gravity_chunk,
                                                  gravity_holdout_chunk,
                                                  rotate_gravity_tensor, stack_tensors)
 from capbridge.status import HAS_RESULT, Status, cf_flag_attributes
 
 __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_table",
+           "table_axes",
            "reference_chunk", "separated_chunk", "coalesced_chunk", "FAILURE_KINDS", "failure_kind"]
+
+log = logging.getLogger(__name__)
 
 PAIRS = ((0, 1), (0, 2), (1, 2))
 PAIR_NAMES = ("f12", "f13", "f23")
@@ -134,9 +138,11 @@ class TripletGrid:
 
     @classmethod
     def shipped(cls, quick=False):
-        """The grid of ``data/triplet_table.nc`` (``quick``: 2 geometries x 2 x 2)."""
+        """The grid of ``data/triplet_table.nc`` (``quick``: two nodes per axis, the
+        smallest grid the surrogate accepts: 4 canonical geometries x 2 x 2 = 16 points;
+        theta 0 and 30 deg, where the exact separated states cost least)."""
         if quick:
-            return cls((0.05, 0.15), (0.0, 60.0), (1.0, 1.3))
+            return cls((0.05, 0.15), (0.0, 30.0), (1.0, 1.3))
         return cls()
 
     def as_dict(self):
@@ -167,6 +173,16 @@ class EvolverPlan:
     level_timeout: float = 150.0
     total_timeout: float = 300.0
     retry_rings: tuple = (8, 12)
+
+    @classmethod
+    def shipped(cls, quick=False):
+        """The settings of ``data/triplet_table.nc`` (``quick``: level 2, the coarsest
+        with an error estimate: virtual work at levels 1 and 2; its estimates, ~3 %,
+        are above ``ftol``, so the quick table's points are ``above_tolerance``, and
+        its held-out points are at level 3)."""
+        if quick:
+            return cls(max_refine=2)
+        return cls()
 
     def settings(self):
         return dataclasses.asdict(self)
@@ -352,11 +368,26 @@ def _holdout_points(grid, n, seed):
     return g, t, v
 
 
+def table_axes(grid: TripletGrid, n_holdout=0, gravity: GravityPlan | None = None):
+    """The dimension coordinates of the table :func:`build_triplet_table` makes (for
+    the check of the output before the sweep): dimensions of length 0 are absent."""
+    axes = {"d12": grid.gaps, "d13": grid.gaps, "d23": grid.gaps, "theta": grid.theta,
+            "v": grid.v, "grain": (1, 2, 3), "component": (0, 1, 2)}
+    if n_holdout:
+        axes["holdout"] = range(n_holdout)
+    if gravity is not None:
+        axes |= {"gravity_v": gravity.v, "gravity_component": (0, 1, 2)}
+        n = len(gravity.cases_inside(grid)[0]) * len(gravity.bonds)
+        if n:
+            axes["gravity_holdout"] = range(n)
+    return {k: [float(x) for x in v] for k, v in axes.items()}
+
+
 def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
                         n_holdout=0, checkpoint_dir=None, n_jobs=None, scheduler=None,
                         progress=True, command=None, seed=1,
-                        exact_only=False, gravity: GravityPlan | None = None
-                        ) -> xr.Dataset | None:
+                        exact_only=False, gravity: GravityPlan | None = None,
+                        worker_timeout=DASK_WORKER_TIMEOUT) -> xr.Dataset | None:
     """Run the sweep (resumable) and return the table as a labelled Dataset.
 
     Phases: exact coalescence volumes of the canonical geometries; the coalesced body
@@ -365,7 +396,10 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     stops the build (rerun to retry) instead of computing on placeholders.
     ``gravity``: also the response of the forces to gravity on the liquid on the
     plan's sub-grid of v, and its held-out checks against direct minimisations with
-    gravity (:mod:`capbridge.tables.triplet_gravity`).
+    gravity (:mod:`capbridge.tables.triplet_gravity`); held-out cases outside the
+    grid's box cannot check it and are skipped (logged, counted in the attribute
+    ``gravity_holdout_cases_skipped``).
+    ``worker_timeout``: Dask, see :func:`~capbridge.tables.sweep.run_sweep`.
     ``exact_only``: run the exact phases (coalescence volumes, separated-state
     energies) into the checkpoints and return None, e.g. beside a running Evolver
     sweep on the same checkpoint directory.
@@ -380,7 +414,7 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
         ck = None if checkpoint_dir is None else f"{checkpoint_dir}/{name}"
         res = run_sweep(fn, inputs, checkpoint_dir=ck, chunk_size=chunk_size, n_jobs=n_jobs,
                         scheduler=scheduler, progress=progress, desc=name,
-                        settings=settings)
+                        settings=settings, worker_timeout=worker_timeout)
         return res.raise_if_failed()
 
     G, T = np.repeat(canon, nt, axis=0), np.tile(theta, nc)
@@ -519,19 +553,31 @@ def _gravity_dataset(grid, gplan, canon, vref, status, phase):
                                "table frame (g_hat: the direction gravity pulls)"})}
     ds = xr.Dataset(data, coords=coords)
     ds.attrs["gravity_settings"] = json.dumps(gplan.settings() | {"v": list(gv)})
-    hds = _gravity_holdout_dataset(gplan, phase)
+    hds = _gravity_holdout_dataset(grid, gplan, phase)
     out = ds.merge(hds)
     out.attrs.update(ds.attrs | hds.attrs)
     return out
 
 
-def _gravity_holdout_dataset(gplan, phase):
+def _gravity_holdout_dataset(grid, gplan, phase):
     """Direct minimisations with gravity one level finer than the response, at the
-    cases of :data:`HOLDOUT_CASES` and the Bond numbers of :data:`HOLDOUT_BONDS`."""
+    cases of ``gplan`` (default :data:`HOLDOUT_CASES`) that lie inside ``grid`` and the
+    Bond numbers of ``gplan`` (default :data:`HOLDOUT_BONDS`).  Cases outside the grid
+    are skipped: their number is the attribute ``gravity_holdout_cases_skipped``."""
     from capbridge.solvers.triplet import find_coalescence, triplet_geometry
 
+    cases, outside = gplan.cases_inside(grid)
+    skipped = {"gravity_holdout_cases_skipped": len(outside)}
+    if outside:
+        log.warning("%d of %d gravity held-out cases lie outside the table's grid (gaps "
+                    "%g-%g, theta %g-%g deg, v %g-%g) and are skipped: %s",
+                    len(outside), len(gplan.cases), min(grid.gaps), max(grid.gaps),
+                    min(grid.theta), max(grid.theta), min(grid.v), max(grid.v),
+                    "; ".join(f"gaps {c[0]}, theta {c[1]:g}, v {c[2]:g}" for c in outside))
+    if not cases:
+        return xr.Dataset(attrs=skipped)
     rows = []
-    for gaps, theta, v, _, direction in gplan.cases:
+    for gaps, theta, v, _, direction in cases:
         vc = find_coalescence(triplet_geometry(*gaps), theta).V_coal
         rows += [(*gaps, theta, v, v * vc, bo, *direction) for bo in gplan.bonds]
     a = np.array(rows, float)
@@ -544,7 +590,7 @@ def _gravity_holdout_dataset(gplan, phase):
     dim = ("gravity_holdout",)
     F = np.stack([np.stack([res[f"force_{g + 1}{c}"] for c in COMPONENTS], -1)
                   for g in range(3)], -2)
-    names = [case[3] for case in gplan.cases for _ in gplan.bonds]
+    names = [case[3] for case in cases for _ in gplan.bonds]
     hv = {"gravity_holdout_d12": (dim, a[:, 0], ATTRS["d12"]),
           "gravity_holdout_d13": (dim, a[:, 1], ATTRS["d13"]),
           "gravity_holdout_d23": (dim, a[:, 2], ATTRS["d23"]),
@@ -564,6 +610,7 @@ def _gravity_holdout_dataset(gplan, phase):
     ds = xr.Dataset(hv, coords={"gravity_holdout": ("gravity_holdout", np.arange(len(a)), {
         "units": "1", "long_name": "held-out check of the gravity response"})})
     ds.attrs["gravity_holdout_settings"] = json.dumps(fine.settings())
+    ds.attrs.update(skipped)
     return ds
 
 
