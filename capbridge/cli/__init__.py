@@ -291,7 +291,7 @@ def cmd_generate_doublet(args):
         "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
         "out d* > 0.96 d*_rupt, where dF/dd* diverges at the fold; ratios on the grid and "
         "halfway between (cubic spline across ratio slices)")
-    if sur.has_gravity():
+    if sur.has_gravity_:
         _gravity_holdout_attrs(ds.attrs, gravity_holdout_errors(
             sur, n=args.gravity_holdout, progress=not args.no_progress))
     save_doublet_table(ds, args.output, command=command, overwrite=args.overwrite)

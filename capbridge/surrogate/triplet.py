@@ -88,6 +88,7 @@ from scipy.interpolate import make_interp_spline
 
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.base import SurrogateBase
 from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          refine_axis, si_bond)
 from capbridge.physics.gravity import check_bond, gravity_vector, liquid_weight
@@ -425,8 +426,22 @@ def _symmetrise(pair_values, scalar_values, codes):
     return f / len(perms), sc / len(perms), cd
 
 
-class TripletSurrogate:
+def _refine3(refine):
+    """``refine`` of :class:`TripletSurrogate` checked, as three integers."""
+    r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
+    if len(r) != 3:
+        raise CapbridgeInputError(f"refine={refine!r}: give one integer or three "
+                                  "(gaps, theta, v)")
+    return tuple(check_int("refine", x, 1, MAX_REFINE,
+                           hint="fine-grid steps per table interval") for x in r)
+
+
+class TripletSurrogate(SurrogateBase):
     """Interpolating surrogate of a coalesced-triplet table (fit / predict).
+
+    Follows the surrogate contract of :mod:`capbridge.surrogate.base` (NotFittedError,
+    ``has_gravity_``, :meth:`summary`, statuses, the no-result rule: no triplet status
+    is RUPTURED, a point without a result has NaN numbers).
 
     Parameters
     ----------
@@ -454,12 +469,8 @@ class TripletSurrogate:
                  clip_hint="out_of_range='clip'"):
         check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
-        r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
-        if len(r) != 3:
-            raise CapbridgeInputError(f"refine={refine!r}: give one integer or three "
-                                      "(gaps, theta, v)")
-        self.refine = tuple(check_int("refine", x, 1, MAX_REFINE,
-                                      hint="fine-grid steps per table interval") for x in r)
+        _refine3(refine)        # checked here, stored as given (scikit-learn's clone)
+        self.refine = refine
         self.method = method
         self.out_of_range = out_of_range
         self.clip_hint = clip_hint
@@ -497,14 +508,15 @@ class TripletSurrogate:
         self.gaps_ = gaps
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.v_ = np.asarray(ds["v"].values, float)
-        rg, rt, rv = self.refine if self.method != "linear" else (1, 1, 1)
+        self.refine_ = _refine3(self.refine)
+        rg, rt, rv = self.refine_ if self.method != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
                       _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
         coarse = [gaps, gaps, gaps, self.theta_, self.v_]
         n_fine = np.prod([a.n for a in self.axes_])
         if n_fine * (len(GRID_VARIABLES) + 1) * 8 > MAX_GRID_BYTES:
             raise CapbridgeInputError(
-                f"refine={self.refine} makes a fine grid of {n_fine:,} nodes "
+                f"refine={self.refine_} makes a fine grid of {n_fine:,} nodes "
                 f"(> {MAX_GRID_BYTES / 1e6:g} MB); use a smaller refine")
 
         vals, has, code = _node_data(ds)
@@ -689,7 +701,7 @@ class TripletSurrogate:
         for ``capbridge info``."""
         self._check_fitted()
         cells = np.bincount(self.cell_code_.ravel(), minlength=4)
-        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine),
+        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine_),
                 "gaps": self.gaps_.tolist(), "theta": self.theta_.tolist(),
                 "v": self.v_.tolist(), "coalescence_volume": self.coalescence_source_,
                 "cells": {"converged": int(cells[0]), "above_tolerance": int(cells[1]),
@@ -716,10 +728,6 @@ class TripletSurrogate:
                     else refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
-
-    def _check_fitted(self):
-        if not hasattr(self, "table_"):
-            raise RuntimeError("TripletSurrogate is not fitted: call fit(table) first")
 
     @property
     def bounds_(self):
@@ -977,9 +985,10 @@ class TripletSurrogate:
 
     def _gravity_lookup(self, g, t, v, volume):
         """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
-        ``volume`` (lookup units), the cell's largest sum-rule residual and a code per
-        point: 0 available, 1 v outside the response's range (nearest v, approximate),
-        2 not available (a node of the cell has no response)."""
+        ``volume`` (lookup units), the cell's largest sum-rule residual and a status
+        per point (int8 :class:`~capbridge.status.Status`): CONVERGED (available),
+        APPROXIMATE (v outside the response's range: nearest v), NOT_CONVERGED (not
+        available: a node of the cell has no response)."""
         gv = self.gravity_v_
         clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
         vq = np.clip(v, gv[0], gv[-1])
@@ -992,7 +1001,9 @@ class TripletSurrogate:
         C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
         cell = tuple(idx)
         bad = self.gravity_cell_bad_[cell] > 0
-        code = np.where(bad, 2, np.where(clipped, 1, 0)).astype(np.int8)
+        code = np.where(bad, np.int8(Status.NOT_CONVERGED),
+                        np.where(clipped, np.int8(Status.APPROXIMATE),
+                                 np.int8(Status.CONVERGED))).astype(np.int8)
         return G, C, self.gravity_cell_residual_[cell], code
 
     def gravity_summary(self):
@@ -1187,9 +1198,10 @@ class TripletSurrogate:
             resid[on] = resid_on
             st = status[on]
             has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
-            approx = (code == 1) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
+            approx = (code == Status.APPROXIMATE) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
             st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
-            st = np.where((code == 2) & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
+            st = np.where((code == Status.NOT_CONVERGED)
+                          & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
                           np.int8(Status.NOT_CONVERGED), st)
             status[on] = st
             nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
@@ -1236,6 +1248,7 @@ class TripletSurrogate:
         """
         from capbridge.dimensionless import force_scale, pressure_scale
 
+        self._check_fitted()
         slip = "SI units expected: radii in m, surface_tension in N/m (a unit slip?)"
         R = check_range("predict_si radius", radius, *SI_RADIUS_RANGE, units=" m",
                         hint=slip)
