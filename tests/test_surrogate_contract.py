@@ -12,8 +12,8 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.exceptions import NotFittedError
 
 from capbridge.status import Status
-from capbridge.surrogate.base import (SurrogateNotFittedError, apply_no_result_rule,
-                                      worst_status)
+from capbridge.surrogate.base import (CSV_COLUMNS, OUTPUT_NAMES, SurrogateNotFittedError,
+                                      apply_no_result_rule, worst_status)
 from capbridge.surrogate.doublet import DoubletSurrogate
 from capbridge.surrogate.doublet import default_table as doublet_table
 from capbridge.surrogate.triplet import TripletSurrogate
@@ -116,3 +116,13 @@ def test_gravity_lookups_report_status(doublet):
     assert "code" not in r
     assert set(r["status"].tolist()) <= {Status.CONVERGED, Status.APPROXIMATE,
                                          Status.NOT_CONVERGED}
+
+
+def test_one_set_of_output_names():
+    assert CSV_COLUMNS["force"] == "F" and CSV_COLUMNS["pressure"] == "P"
+    assert CSV_COLUMNS["rupture_gap"] == "d_rupt"
+    assert set(OUTPUT_NAMES) == set(CSV_COLUMNS)
+    from capbridge.cli import LOOKUP_OUTPUTS, TRIPLET_OUTPUTS
+    assert LOOKUP_OUTPUTS == {"force": "F", "pressure": "P", "beta1": "beta1", "beta2": "beta2",
+                              "rupture_gap": "d_rupt"}
+    assert TRIPLET_OUTPUTS["volume_coalescence"] == "V_coal" and TRIPLET_OUTPUTS["pressure"] == "P"
