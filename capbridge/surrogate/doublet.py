@@ -16,6 +16,7 @@ from scipy.interpolate import make_interp_spline
 
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.grid import UniformAxis, bilinear, bilinear_flat, trilinear
 from capbridge.surrogate.base import (SurrogateBase, apply_no_result_rule, has_number,
                                      worst_status)
 from capbridge.physics.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
@@ -109,24 +110,6 @@ def refine_axis(values, axis, coarse, fine):
     return spline(fine)
 
 
-def _uniform(lo, hi, n):
-    return np.linspace(lo, hi, n)
-
-
-class _Axis:
-    """A uniform fine axis: index and weight by arithmetic, no search."""
-
-    def __init__(self, lo, hi, n):
-        self.lo, self.hi, self.n = float(lo), float(hi), int(n)
-        self.step = (self.hi - self.lo) / (self.n - 1) if self.n > 1 else 1.0
-        self.nodes = _uniform(lo, hi, n)
-
-    def locate(self, x):
-        u = (x - self.lo) / self.step
-        i = np.clip(np.floor(u), 0, max(self.n - 2, 0)).astype(np.intp)
-        return i, u - i
-
-
 class DoubletSurrogate(SurrogateBase):
     """Interpolating surrogate of a doublet table (scikit-learn style: fit, predict).
 
@@ -192,11 +175,11 @@ class DoubletSurrogate(SurrogateBase):
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.volume_ = np.asarray(ds["volume"].values, float)
         self.s_ = np.asarray(ds["s"].values, float)
-        self.theta_axis_ = _Axis(self.theta_[0], self.theta_[-1],
+        self.theta_axis_ = UniformAxis(self.theta_[0], self.theta_[-1],
                                  int(round((self.theta_[-1] - self.theta_[0]) / theta_step)) + 1)
         lv = np.log(self.volume_)
-        self.logv_axis_ = _Axis(lv[0], lv[-1], (len(lv) - 1) * refine + 1)
-        self.s_axis_ = _Axis(self.s_[0], self.s_[-1], (len(self.s_) - 1) * refine + 1)
+        self.logv_axis_ = UniformAxis(lv[0], lv[-1], (len(lv) - 1) * refine + 1)
+        self.s_axis_ = UniformAxis(self.s_[0], self.s_[-1], (len(self.s_) - 1) * refine + 1)
         self.refine_, self.theta_step_ = refine, theta_step
         self._fine = {}
         self._ratio_basis = None
@@ -698,12 +681,12 @@ class DoubletSurrogate(SurrogateBase):
         """Trilinear lookup on the fine grid of ratio slice ``jr``."""
         it, ft = self.theta_axis_.locate(theta)
         iv, fv = self.logv_axis_.locate(np.log(volume))
-        d_r = _bilinear(self._fine_grid(jr, "rupture_gap"), it, ft, iv, fv)
+        d_r = bilinear(self._fine_grid(jr, "rupture_gap"), it, ft, iv, fv)
         s = np.sqrt(np.clip(1.0 - gap / d_r, 0.0, 1.0))
         i_s, fs = self.s_axis_.locate(s)
         out = {"rupture_gap": d_r}
         for name in variables:
-            out[name] = _trilinear(self._fine_grid(jr, name), it, ft, iv, fv, i_s, fs)
+            out[name] = trilinear(self._fine_grid(jr, name), it, ft, iv, fv, i_s, fs)
         return out
 
     def predict_fixed_theta(self, gap, volume, theta, ratio=1.0, name="force"):
@@ -732,11 +715,7 @@ class DoubletSurrogate(SurrogateBase):
         s = np.sqrt(np.maximum(s2, 0.0)) * ((ax_s.n - 1) / (ax_s.hi - ax_s.lo))
         i_s = np.minimum(s.astype(np.intp), ax_s.n - 2)
         fs = s - i_s
-        flat = grid.ravel()
-        k = iv * ax_s.n + i_s
-        a = flat[k] + (flat[k + 1] - flat[k]) * fs
-        b = flat[k + ax_s.n] + (flat[k + ax_s.n + 1] - flat[k + ax_s.n]) * fs
-        val = a + (b - a) * fv
+        val = bilinear_flat(grid.ravel(), iv * ax_s.n + i_s, ax_s.n, fs, fv)
         if name == "force":
             val = np.where(s2 < 0.0, 0.0, val)
         return val
@@ -862,21 +841,6 @@ def _jsonable(v):
     if isinstance(v, np.generic):
         return v.item()
     return v
-
-
-def _bilinear(grid, i, fi, j, fj):
-    a = grid[i, j] * (1 - fj) + grid[i, j + 1] * fj
-    b = grid[i + 1, j] * (1 - fj) + grid[i + 1, j + 1] * fj
-    return a * (1 - fi) + b * fi
-
-
-def _trilinear(grid, i, fi, j, fj, k, fk):
-    def plane(ii):
-        a = grid[ii, j, k] * (1 - fk) + grid[ii, j, k + 1] * fk
-        b = grid[ii, j + 1, k] * (1 - fk) + grid[ii, j + 1, k + 1] * fk
-        return a * (1 - fj) + b * fj
-
-    return plane(i) * (1 - fi) + plane(i + 1) * fi
 
 
 def default_table():

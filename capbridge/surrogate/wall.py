@@ -21,6 +21,7 @@ import numpy as np
 
 from capbridge.status import Status
 from capbridge.surrogate.base import SurrogateBase, apply_no_result_rule
+from capbridge.surrogate.grid import profile_value
 from capbridge.surrogate.names import WALL_OUTPUTS
 from capbridge.validation import CapbridgeInputError, check_gap, check_int, check_range
 
@@ -30,16 +31,6 @@ __all__ = ["SphereWallSurrogate", "profile_value", "N_FINE_S", "WALL_OUTPUTS"]
 N_FINE_S = 257
 #: variables of a slice the surrogate interpolates (API names)
 _SLICE_VARIABLES = ("force", "pressure")
-
-
-def profile_value(rows, x):
-    """Linear interpolation of profiles ``rows`` (k, N) on the uniform s grid [0, 1] at
-    s = sqrt(1 - x), x = d*/d*_rupt (overlaps count as contact, beyond rupture s = 0)."""
-    s = np.sqrt(np.clip(1.0 - x, 0.0, 1.0)) * (rows.shape[1] - 1)
-    i = np.minimum(s.astype(np.intp), rows.shape[1] - 2)
-    u = s - i
-    k = np.arange(rows.shape[0])
-    return rows[k, i] * (1 - u) + rows[k, i + 1] * u
 
 
 class SphereWallSurrogate(SurrogateBase):
