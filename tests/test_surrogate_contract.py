@@ -126,3 +126,15 @@ def test_one_set_of_output_names():
     assert LOOKUP_OUTPUTS == {"force": "F", "pressure": "P", "beta1": "beta1", "beta2": "beta2",
                               "rupture_gap": "d_rupt"}
     assert TRIPLET_OUTPUTS["volume_coalescence"] == "V_coal" and TRIPLET_OUTPUTS["pressure"] == "P"
+
+
+def test_no_result_rule_triplet(triplet):
+    clip = clone(triplet).set_params(out_of_range="clip").fit(triplet_table())
+    vc = float(clip.coalescence_volume(0.1, 0.1, 0.1, 20.0)["volume_coalescence"])
+    r = clip.predict(0.1, 0.1, 0.1, [0.3 * vc, 1.0 * vc], 20.0)
+    assert r["status"][0] in (Status.OUT_OF_RANGE, Status.NO_EQUILIBRIUM)
+    for name in ("f12", "f13", "f23", "pressure", "energy", "force_error"):
+        assert np.isnan(r[name][0])
+    assert np.isfinite(r["volume_coalescence"]).all()
+    if r["status"][1] in (Status.CONVERGED, Status.ABOVE_TOLERANCE):
+        assert np.isfinite(r["f12"][1])

@@ -28,13 +28,18 @@ is fitted on a table of exact solutions and then looked up:
 
 The no-result rule (:func:`apply_no_result_rule`)
 ---------------------------------------------------
-Only points whose status is in :data:`WITH_NUMBER` (CONVERGED, ABOVE_TOLERANCE,
-APPROXIMATE, EXTRAPOLATED) carry numbers.  A RUPTURED bridge (a doublet or a sphere-wall
-bridge beyond its rupture distance) really has no force: its forces are 0 (``force``,
-force vectors), its other outputs (pressure, angles) NaN; ``rupture_gap`` is kept (it
-is a property of the liquid volume, not of the bridge at this gap).  Every other
-status (NOT_CONVERGED, OUT_OF_RANGE, NO_EQUILIBRIUM, COALESCED, NOT_COMPUTED) has no
-number: every output is NaN.  Never a silent NaN: the status says why.
+It applies to the numbers that describe the liquid body at the point: forces (scalar
+and vectors), pressure, filling angles, energy and their error estimates.  Only points
+whose status is in :data:`WITH_NUMBER` (CONVERGED, ABOVE_TOLERANCE, APPROXIMATE,
+EXTRAPOLATED) carry them.  A RUPTURED bridge (a doublet or a sphere-wall bridge beyond
+its rupture distance) really has no force: its forces are 0, its other numbers
+(pressure, angles) NaN.  Every other status (NOT_CONVERGED, OUT_OF_RANGE,
+NO_EQUILIBRIUM, COALESCED, NOT_COMPUTED) has no number: NaN.  Quantities of the
+geometry and the volume rather than of the body at this point (``rupture_gap``,
+``volume_coalescence``, ``v``, ``V0``, ``dV``) and the interpolated inputs reported
+for diagnosis (``share``, ``curvature``, ...) are kept.  Never a silent NaN: the status
+says why.  (Before the contract the doublet and triplet already agreed on this; it is
+now stated once, here, and checked for both and for the sphere-wall surrogate.)
 """
 from __future__ import annotations
 
