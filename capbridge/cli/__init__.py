@@ -17,6 +17,9 @@ import numpy as np
 from capbridge.studies import STUDIES
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status, status_name
+from capbridge.surrogate.names import CSV_COLUMNS as COL
+from capbridge.surrogate.names import DOUBLET_OUTPUTS, csv_columns
+from capbridge.surrogate.names import TRIPLET_OUTPUTS as TRIPLET_SURROGATE_OUTPUTS
 from capbridge.validation import CapbridgeInputError, check_gap, check_range, interval_text
 
 DATA = DATA_DIR
@@ -138,8 +141,8 @@ def cmd_solve_doublet(args):
         volume = r["volume"]
     out = {"d": args.d, "V": volume, "theta": args.theta,
            "theta2": args.theta if args.theta2 is None else args.theta2,
-           "ratio": args.ratio, "F": r["force"], "P": r["pressure"], "beta1": r["beta1"],
-           "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
+           "ratio": args.ratio, COL["force"]: r["force"], COL["pressure"]: r["pressure"],
+           "beta1": r["beta1"], "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
            "energy": r["energy"], "status": status_name(r["status"]),
            "units": "dimensionless by R1 and gamma: F*=F/(2 pi gamma R1), P*=dp R1/gamma; angles in degrees"}
     print(json.dumps({k: _json_value(v) if not isinstance(v, str) else v for k, v in out.items()},
@@ -159,8 +162,7 @@ def _load_surrogate(path, out_of_range="raise"):
 #: lookup doublet: CSV columns read and written (an input column may not be an output)
 LOOKUP_INPUTS = ("d", "V", "theta")
 LOOKUP_OPTIONAL = ("ratio", "theta2")
-LOOKUP_OUTPUTS = {"force": "F", "pressure": "P", "beta1": "beta1", "beta2": "beta2",
-                  "rupture_gap": "d_rupt"}
+LOOKUP_OUTPUTS = csv_columns(DOUBLET_OUTPUTS)
 LOOKUP_RESERVED = tuple(LOOKUP_OUTPUTS.values()) + ("status", "method")
 
 
@@ -238,11 +240,11 @@ def _lookup_doublet_gravity(args, sur, columns, x, bond, direction):
     r = sur.predict_vectors(x["d"], x["V"], x["theta"], x.get("ratio", 1.0), bond=bond,
                             gravity=direction)
     df = pd.DataFrame(columns)
-    df["F"] = r["force"]
+    df[COL["force"]] = r["force"]
     for g, key in ((1, "F1"), (2, "F2")):
         for k, c in enumerate("xyz"):
             df[f"F{g}{c}"] = r[key][:, k]
-    df["d_rupt"] = r["rupture_gap"]
+    df[COL["rupture_gap"]] = r["rupture_gap"]
     df["status"] = [status_name(s) for s in r["status"]]
     df["method"] = "table"
     df.to_csv(args.output, index=False)
@@ -291,7 +293,7 @@ def cmd_generate_doublet(args):
         "uniform in theta, log V*, and s = sqrt(1 - d*/d*_rupt) in [band, 1]; band 0.2 leaves "
         "out d* > 0.96 d*_rupt, where dF/dd* diverges at the fold; ratios on the grid and "
         "halfway between (cubic spline across ratio slices)")
-    if sur.has_gravity():
+    if sur.has_gravity_:
         _gravity_holdout_attrs(ds.attrs, gravity_holdout_errors(
             sur, n=args.gravity_holdout, progress=not args.no_progress))
     save_doublet_table(ds, args.output, command=command, overwrite=args.overwrite)
@@ -508,9 +510,7 @@ def _load_triplet_surrogate(path, coalescence_table=None, out_of_range="raise"):
 
 #: lookup triplet: CSV columns read and written
 TRIPLET_INPUTS = ("d12", "d13", "d23", "V", "theta")
-TRIPLET_OUTPUTS = {"f12": "f12", "f13": "f13", "f23": "f23", "pressure": "P",
-                   "volume_coalescence": "V_coal", "v": "v", "V0": "V0", "dV": "dV",
-                   "energy_difference": "E_coal_minus_E_sep", "force_error": "f_error"}
+TRIPLET_OUTPUTS = csv_columns(TRIPLET_SURROGATE_OUTPUTS)
 TRIPLET_RESERVED = tuple(TRIPLET_OUTPUTS.values()) + ("status", "lower_energy_state")
 
 

@@ -28,6 +28,7 @@ import numpy as np
 
 from capbridge.dimensionless import force_scale
 from capbridge.status import Status
+from capbridge.surrogate.grid import bilinear_flat
 
 __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
            "distinct_values", "balance_error"]
@@ -330,15 +331,11 @@ class SceneTable:
         nS = self.s_axis.n
         k = const["base"] + i_s
         fv = const["fv"]
-        a = flat[k] + (flat[k + 1] - flat[k]) * fs
-        b = flat[k + nS] + (flat[k + nS + 1] - flat[k + nS]) * fs
-        val = a + (b - a) * fv
+        val = bilinear_flat(flat, k, nS, fs, fv)
         if not self.discrete:
             k2 = k + self.v_axis.n * nS
             k2 = np.where(const["fr"] > 0, k2, k)    # last node: weight 0 anyway
-            a2 = flat[k2] + (flat[k2 + 1] - flat[k2]) * fs
-            b2 = flat[k2 + nS] + (flat[k2 + nS + 1] - flat[k2 + nS]) * fs
-            val2 = a2 + (b2 - a2) * fv
+            val2 = bilinear_flat(flat, k2, nS, fs, fv)
             val = val + (val2 - val) * const["fr"]
         return val
 

@@ -58,6 +58,8 @@ import math
 
 import numpy as np
 
+from capbridge.status import Status
+from capbridge.surrogate.base import has_number
 from capbridge.surrogate.doublet import BOND_MAX
 from capbridge.dem.bridges import ERROR_BAND, distinct_values
 from capbridge.physics.gravity import doublet_gravity_forces
@@ -306,7 +308,7 @@ class LiquidGravity:
         if self.eps is None:
             self.eps, self.eps_source = table_error(model.table.surrogate)
         sur = model.table.surrogate
-        self.doublet_response = bool(getattr(sur, "has_gravity", lambda: False)())
+        self.doublet_response = bool(getattr(sur, "has_gravity_", False))
         r_max = float(model.radii.max(initial=0.0))
         bo_max = self.drho * gn * r_max**2 / self.gamma
         rel = self.estimate(model, self.g) if gn > 0 else 0.0
@@ -390,7 +392,7 @@ class LiquidGravity:
             k = np.flatnonzero(use)
             self.n_corrected = int(k.size)
             if self.doublet_response is None:
-                self.doublet_response = bool(model.table.surrogate.has_gravity())
+                self.doublet_response = bool(model.table.surrogate.has_gravity_)
             w, c, u = (self.response(model, geom, k) if self.doublet_response
                        else (SHARE_AXIAL, CURVATURE_AXIAL, SHARE_AXIAL))
             fi, fj = bridge_gravity_forces(geom["d"][k], geom["dist"][k],
@@ -441,7 +443,8 @@ class LiquidGravity:
         t = np.clip((s - s_nodes[j]) / (s_nodes[j + 1] - s_nodes[j]), 0.0, 1.0)
         rows = np.arange(kk.size)
         val = prof[rows, j] + t[:, None] * (prof[rows, j + 1] - prof[rows, j])
-        ok = (np.maximum(code[rows, j], code[rows, j + 1]) < 2) & np.isfinite(val).all(-1)
+        ok = has_number(code[rows, j]) & has_number(code[rows, j + 1]) & \
+            np.isfinite(val).all(-1)
         w[same[ok]], u[same[ok]], c[same[ok]] = val[ok, 0], val[ok, 1], val[ok, 2]
         return w, c, u
 
@@ -463,7 +466,8 @@ class LiquidGravity:
             P["key"] = np.concatenate([P["key"], np.full(grow, -1, np.int64)])
             P["vstar"] = np.concatenate([P["vstar"], np.zeros(grow)])
             P["val"] = np.concatenate([P["val"], np.zeros((grow, ns, 3))])
-            P["code"] = np.concatenate([P["code"], np.full((grow, ns), 2, np.int8)])
+            P["code"] = np.concatenate([P["code"], np.full((grow, ns), Status.NOT_COMPUTED,
+                                                           np.int8)])
         slot = model.slot[kk]
         stale = (P["key"][slot] != model.keys[kk]) | (P["vstar"][slot] != model.vstar[kk])
         if stale.any():
@@ -477,7 +481,7 @@ class LiquidGravity:
             sl = slot[stale]
             P["val"][sl] = np.stack([r["share"], r["share_transverse"], r["curvature"]],
                                     -1).reshape(m, ns, 3)
-            P["code"][sl] = r["code"].reshape(m, ns)
+            P["code"][sl] = r["status"].reshape(m, ns)
             P["key"][sl], P["vstar"][sl] = model.keys[new], model.vstar[new]
         return P["val"][slot], P["code"][slot], P["s"]
 

@@ -43,16 +43,13 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import force_scale
-from capbridge.status import Status
+from capbridge.surrogate.wall import N_FINE_S, SphereWallSurrogate, profile_value
 from capbridge.validation import CapbridgeInputError
 
 __all__ = ["WallSet", "WallTable", "WallBridges", "closest_points", "WALL_SHAPES"]
 
 #: YADE shape classes that can hold a wall bridge, and their kind code
 WALL_SHAPES = {"Wall": 0, "Box": 1, "Facet": 2}
-
-#: fine uniform s nodes of a bridge's force profile (linear between them)
-N_FINE_S = 257
 
 _TABLE_CACHE: dict = {}
 
@@ -213,17 +210,24 @@ class WallTable:
 
     A slice is solved when a bridge of its pair first forms (once per process, cached;
     4-15 s each on a shared 2-core machine) and must converge at every node, else the
-    engine stops with an error (never a silent NaN force).
+    engine stops with an error (never a silent NaN force).  The lookup is the one of
+    :class:`~capbridge.surrogate.wall.SphereWallSurrogate` (``surrogate``), fitted on
+    these slices.
     """
 
     def __init__(self, pairs, volumes, n_s=25):
         self.volumes = np.asarray(volumes, float)
         self.vstar_range = (float(self.volumes[0]), float(self.volumes[-1]))
         self.n_s = int(n_s)
-        self.pairs = np.empty((0, 2))
-        self.force, self.rupture = [], []        # per slice: (volume, s), (volume,)
+        self.surrogate = SphereWallSurrogate(n_fine_s=N_FINE_S)
         self.fine_s = np.linspace(0.0, 1.0, N_FINE_S)
         self.ensure(pairs)
+
+    @property
+    def pairs(self):
+        """(p, 2) (theta_s, theta_w) of the slices held."""
+        return self.surrogate.pairs_ if self.surrogate.__sklearn_is_fitted__() \
+            else np.empty((0, 2))
 
     def ensure(self, pairs):
         """Solve the slices of the (theta_s, theta_w) ``pairs`` not held yet."""
@@ -235,61 +239,26 @@ class WallTable:
             key = (float(ts), float(tw), tuple(self.volumes.tolist()), self.n_s)
             if key not in _TABLE_CACHE:
                 _TABLE_CACHE[key] = sphere_wall_table(ts, tw, self.volumes, self.n_s)
-            ds = _TABLE_CACHE[key]
-            bad = int((ds["status"].values != int(Status.CONVERGED)).sum()
-                      + (ds["rupture_status"].values != int(Status.CONVERGED)).sum())
-            if bad:
-                raise ValueError(f"sphere-wall table ({ts:g}, {tw:g}) deg has {bad} unconverged "
-                                 "points: the engine cannot use it")
-            self.force.append(ds["force"].values)
-            self.rupture.append(ds["rupture_gap"].values)
-            self.s = ds["s"].values
-            self.pairs = np.vstack([self.pairs, [ts, tw]])
+            self.surrogate.partial_fit(_TABLE_CACHE[key])   # checks every node converged
 
     def slice_index(self, theta_s, theta_w):
         """Slice of each (theta_s, theta_w) pair (solved now if not held yet)."""
         t = np.column_stack([np.atleast_1d(theta_s), np.atleast_1d(theta_w)]).astype(float)
         self.ensure(t)
-        hit = np.all(np.abs(self.pairs[None] - t[:, None]) <= 1e-9, axis=2)
-        return hit.argmax(axis=1)
+        return self.surrogate.slice_index(t[:, 0], t[:, 1])
 
     def profiles(self, slice_idx, vstar):
         """Rupture gap d*_rupt and force profile F* on :attr:`fine_s` of bridges of
         volume ``vstar`` in slices ``slice_idx``: ((k,), (k, N_FINE_S))."""
-        from scipy.interpolate import CubicSpline
-
-        vstar = np.atleast_1d(np.asarray(vstar, float))
-        lo, hi = self.vstar_range
-        if np.any(vstar < lo * (1 - 1e-12)) or np.any(vstar > hi * (1 + 1e-12)):
-            raise ValueError(f"wall bridge V* outside the table's [{lo:g}, {hi:g}]")
-        lv = np.log(np.clip(vstar, lo, hi))
-        logv = np.log(self.volumes)
-        d_r = np.empty(vstar.size)
-        rows = np.empty((vstar.size, self.fine_s.size))
-        for p in np.unique(slice_idx):
-            sel = np.flatnonzero(slice_idx == p)
-            d_r[sel] = np.exp(CubicSpline(logv, np.log(self.rupture[p]))(lv[sel]))
-            coarse = CubicSpline(logv, self.force[p], axis=0)(lv[sel])       # (k, n_s)
-            rows[sel] = CubicSpline(self.s, coarse, axis=1)(self.fine_s)
-        return d_r, rows
+        return self.surrogate.profiles(slice_idx, vstar)
 
     def predict(self, gap_star, vstar, theta_s, theta_w):
-        """F* at (d*, V*) for checks against the exact solver (0 beyond rupture)."""
+        """F* at (d*, V*) for checks against the exact solver (0 beyond rupture); the
+        statuses: :meth:`SphereWallSurrogate.predict <capbridge.surrogate.wall.
+        SphereWallSurrogate.predict>`."""
         g, v = np.broadcast_arrays(np.asarray(gap_star, float), np.asarray(vstar, float))
-        p = self.slice_index(np.full(g.size, theta_s), np.full(g.size, theta_w))
-        d_r, rows = self.profiles(p, v.ravel())
-        f = _profile_force(rows, g.ravel() / d_r)
-        return np.where(g.ravel() > d_r, 0.0, f).reshape(g.shape)
-
-
-def _profile_force(rows, x):
-    """Linear interpolation of profiles ``rows`` (k, N) on the uniform s grid at
-    s = sqrt(1 - x), x = d*/d*_rupt (overlaps count as contact)."""
-    s = np.sqrt(np.clip(1.0 - x, 0.0, 1.0)) * (rows.shape[1] - 1)
-    i = np.minimum(s.astype(np.intp), rows.shape[1] - 2)
-    u = s - i
-    k = np.arange(rows.shape[0])
-    return rows[k, i] * (1 - u) + rows[k, i + 1] * u
+        self.ensure([[theta_s, theta_w]])
+        return self.surrogate.predict(g, v, theta_s, theta_w)["force"]
 
 
 # ------------------------------------------------------------------------------------
@@ -485,7 +454,7 @@ class WallBridges:
                     np.concatenate([a, b]) for a, b in zip(geo, new))
             foot, nrm, dist = geo
             gap = dist - m.radii[self.k]
-            f = _profile_force(self.rows, gap / self.d_rupt) * self.fscale
+            f = profile_value(self.rows, gap / self.d_rupt) * self.fscale
             fv = -nrm * f[:, None]
             np.add.at(forces, self.k, fv)
             self.last = {"foot": foot, "n": nrm, "gap": gap, "force": f, "fvec": fv}

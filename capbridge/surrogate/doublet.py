@@ -16,6 +16,9 @@ from scipy.interpolate import make_interp_spline
 
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.grid import UniformAxis, bilinear, bilinear_flat, trilinear
+from capbridge.surrogate.base import (SurrogateBase, apply_no_result_rule, has_number,
+                                     worst_status)
 from capbridge.physics.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
                                          gravity_vector, liquid_weight)
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
@@ -107,26 +110,11 @@ def refine_axis(values, axis, coarse, fine):
     return spline(fine)
 
 
-def _uniform(lo, hi, n):
-    return np.linspace(lo, hi, n)
-
-
-class _Axis:
-    """A uniform fine axis: index and weight by arithmetic, no search."""
-
-    def __init__(self, lo, hi, n):
-        self.lo, self.hi, self.n = float(lo), float(hi), int(n)
-        self.step = (self.hi - self.lo) / (self.n - 1) if self.n > 1 else 1.0
-        self.nodes = _uniform(lo, hi, n)
-
-    def locate(self, x):
-        u = (x - self.lo) / self.step
-        i = np.clip(np.floor(u), 0, max(self.n - 2, 0)).astype(np.intp)
-        return i, u - i
-
-
-class DoubletSurrogate:
+class DoubletSurrogate(SurrogateBase):
     """Interpolating surrogate of a doublet table (scikit-learn style: fit, predict).
+
+    Follows the surrogate contract of :mod:`capbridge.surrogate.base` (NotFittedError,
+    ``has_gravity_``, :meth:`summary`, statuses, the no-result rule).
 
     Parameters
     ----------
@@ -152,10 +140,11 @@ class DoubletSurrogate:
     def __init__(self, refine=DEFAULT_REFINE, theta_step=DEFAULT_THETA_STEP,
                  out_of_range="raise", clip_hint="out_of_range='clip'"):
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
-        self.refine = check_int("refine", refine, 1, MAX_REFINE,
-                                hint="fine-grid nodes per table interval")
-        self.theta_step = float(check_range("theta_step", theta_step, MIN_THETA_STEP, 90.0,
-                                            units=" deg"))
+        # checked here, stored as given (scikit-learn's get_params/clone contract); fit
+        # uses the checked values
+        self._settings(refine, theta_step)
+        self.refine = refine
+        self.theta_step = theta_step
         self.out_of_range = out_of_range
         self.clip_hint = clip_hint
 
@@ -173,33 +162,67 @@ class DoubletSurrogate:
             ds = validate_doublet_table(table, "doublet table (Dataset)")
         else:
             ds = validate_doublet_table(_open(table), str(table))
+        refine, theta_step = self._settings(self.refine, self.theta_step)
         if any(k.startswith("holdout_") for k in ds.attrs):
             ref = int(ds.attrs.get("holdout_refine", DEFAULT_REFINE))
             step = float(ds.attrs.get("holdout_theta_step", DEFAULT_THETA_STEP))
             keep = "the table's stored error model does not hold on a coarser grid"
-            check_int("refine", self.refine, ref, MAX_REFINE, hint=keep)
-            check_range("theta_step", self.theta_step, MIN_THETA_STEP, step, units=" deg",
+            check_int("refine", refine, ref, MAX_REFINE, hint=keep)
+            check_range("theta_step", theta_step, MIN_THETA_STEP, step, units=" deg",
                         hint=keep)
         self.table_ = ds
         self.ratios_ = np.asarray(ds["ratio"].values, float)
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.volume_ = np.asarray(ds["volume"].values, float)
         self.s_ = np.asarray(ds["s"].values, float)
-        self.theta_axis_ = _Axis(self.theta_[0], self.theta_[-1],
-                                 int(round((self.theta_[-1] - self.theta_[0]) / self.theta_step)) + 1)
+        self.theta_axis_ = UniformAxis(self.theta_[0], self.theta_[-1],
+                                 int(round((self.theta_[-1] - self.theta_[0]) / theta_step)) + 1)
         lv = np.log(self.volume_)
-        self.logv_axis_ = _Axis(lv[0], lv[-1], (len(lv) - 1) * self.refine + 1)
-        self.s_axis_ = _Axis(self.s_[0], self.s_[-1], (len(self.s_) - 1) * self.refine + 1)
+        self.logv_axis_ = UniformAxis(lv[0], lv[-1], (len(lv) - 1) * refine + 1)
+        self.s_axis_ = UniformAxis(self.s_[0], self.s_[-1], (len(self.s_) - 1) * refine + 1)
+        self.refine_, self.theta_step_ = refine, theta_step
         self._fine = {}
         self._ratio_basis = None
         self.holdout_ = {k: v for k, v in ds.attrs.items() if k.startswith("holdout_")}
         self.gravity_bond_max_ = validated_axial_bond(ds.attrs)
+        self.has_gravity_ = all(n in ds for n in GRAVITY_VARIABLES)
         self._gravity_cache = {}            # the gravity layers, prepared at first use
         return self
 
-    def _check_fitted(self):
-        if not hasattr(self, "table_"):
-            raise RuntimeError("DoubletSurrogate is not fitted: call fit(table) first")
+    @staticmethod
+    def _settings(refine, theta_step):
+        """The checked (refine, theta_step)."""
+        refine = check_int("refine", refine, 1, MAX_REFINE,
+                           hint="fine-grid nodes per table interval")
+        theta_step = float(check_range("theta_step", theta_step, MIN_THETA_STEP, 90.0,
+                                       units=" deg"))
+        return refine, theta_step
+
+    def summary(self):
+        """What the surrogate was fitted on and its error model (JSON-friendly dict),
+        for ``capbridge info``: the table's axes, points and converged points, the
+        fine-grid settings, the stored held-out errors (``holdout_*``) and the gravity
+        response (None without one)."""
+        self._check_fitted()
+        ds = self.table_
+        st = np.asarray(ds["status"].values)
+        axes = {name: {"n": int(ds[name].size), "min": float(ds[name].values.min()),
+                       "max": float(ds[name].values.max()),
+                       "long_name": str(ds[name].attrs.get("long_name", ""))}
+                for name in ("ratio", "theta", "volume", "s")}
+        gravity = None
+        if self.has_gravity_:
+            gravity = {"variables": [n for n in GRAVITY_VARIABLES + (
+                "weight_share_transverse", "response_error", "rupture_gap_gravity")
+                if n in ds], "bond_max_supported": BOND_MAX,
+                "bond_max_validated": float(self.gravity_bond_max_)}
+        return {"command": ds.attrs.get("capbridge_command"),
+                "git_commit": ds.attrs.get("git_commit", "not recorded"),
+                "checksum": "data_sha256" in ds.attrs, "axes": axes,
+                "points": int(st.size), "converged": int((st == Status.CONVERGED).sum()),
+                "refine": self.refine_, "theta_step": self.theta_step_,
+                "holdout_error": {k: _jsonable(v) for k, v in self.holdout_.items()},
+                "gravity": gravity}
 
     def _fine_grid(self, ratio_index, name):
         """Fine (theta, logV, s) grid of one variable for one ratio slice, cached."""
@@ -325,6 +348,7 @@ class DoubletSurrogate:
         """
         from capbridge.dimensionless import to_dimensionless, to_si
 
+        self._check_fitted()
         slip = "SI units expected: radii in m, surface_tension in N/m (a unit slip?)"
         r1 = check_range("predict_si radius1", radius1, *SI_RADIUS_RANGE, units=" m", hint=slip)
         r2 = check_range("predict_si radius2", radius2, *SI_RADIUS_RANGE, units=" m", hint=slip)
@@ -371,14 +395,8 @@ class DoubletSurrogate:
         return out
 
     # ---------------------------------------------------------------------- gravity
-    def has_gravity(self):
-        """True if the table carries the response to gravity
-        (:data:`GRAVITY_VARIABLES`)."""
-        self._check_fitted()
-        return all(n in self.table_ for n in GRAVITY_VARIABLES)
-
     def _check_bond(self, bond):
-        return check_bond(bond, self.has_gravity(), "doublet", ", ".join(GRAVITY_VARIABLES),
+        return check_bond(bond, self.has_gravity_, "doublet", ", ".join(GRAVITY_VARIABLES),
                           "the exact solver (capbridge solve doublet --bond)")
 
     def predict_vectors(self, gap, volume, theta, ratio=1.0, bond=0.0, gravity=None):
@@ -475,7 +493,7 @@ class DoubletSurrogate:
             resp = self.gravity_response(R[on], t[on], V[on], s[on])
             share[on], curv[on] = resp["share"], resp["curvature"]
             share_t[on] = resp["share_transverse"]
-            code = resp["code"]
+            code = resp["status"]
             est = self._gravity_error(resp["error"], b[on], R[on], V[on], F0[on])
             gerr[on] = est
             rg, rcode = self._rupture_gravity(R[on], t[on], V[on], np.abs(bn[on]),
@@ -486,10 +504,12 @@ class DoubletSurrogate:
             near = gon > 0.9 * rg
             # the rupture distance with gravity only decides RUPTURED: a rupture sub-grid
             # without the point (clipped: code 1) matters next to rupture only
-            code = np.maximum(code, np.where(near | (rcode == 2), rcode, 0))
+            code = worst_status(code, np.where(near | (rcode == Status.NOT_CONVERGED), rcode,
+                                               np.int8(Status.CONVERGED)))
             has = np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED))
             beyond0 = sto == Status.RUPTURED
-            sto = np.where(has & (code == 2), np.int8(Status.NOT_CONVERGED), sto)
+            sto = np.where(has & (code == Status.NOT_CONVERGED), np.int8(Status.NOT_CONVERGED),
+                           sto)
             sto = np.where(beyond0 & (gon <= rg), np.int8(Status.OUT_OF_RANGE), sto)
             sto = np.where(np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED)) & (gon > rg),
                            np.int8(Status.RUPTURED), sto)
@@ -499,7 +519,7 @@ class DoubletSurrogate:
             unvalidated = ((np.abs(bn[on]) > self.gravity_bond_max_ * (1 + 1e-12))
                            | _transverse_unvalidated(b_perp, R[on], gon, rg))
             sto = np.where((sto == Status.CONVERGED)
-                           & ((code == 1) | (transverse & near) | (est > rtol)
+                           & ((code == Status.APPROXIMATE) | (transverse & near) | (est > rtol)
                               | unvalidated),
                            np.int8(Status.APPROXIMATE), sto)
             st[on] = sto
@@ -534,10 +554,12 @@ class DoubletSurrogate:
         Returns a dict of arrays: ``share`` w, ``curvature`` c, ``share_transverse`` u
         (1/2 for a table without ``weight_share_transverse``), ``error`` the nodes' own
         estimate ``response_error`` (0 for a table without it), all interpolated, and
-        ``code``: 0 ok, 1 clipped to the sub-grid or a corner ABOVE_TOLERANCE, 2 not
-        available.
+        ``status`` (int8 :class:`~capbridge.status.Status`): CONVERGED, APPROXIMATE
+        (clipped to the sub-grid, or a corner ABOVE_TOLERANCE), NOT_CONVERGED (not
+        available: no number).  (Before the surrogate contract: ``code`` 0, 1, 2.)
         """
-        if not self.has_gravity():
+        self._check_fitted()
+        if not self.has_gravity_:
             raise CapbridgeInputError(
                 f"this doublet table has no gravity response ({', '.join(GRAVITY_VARIABLES)})")
         pts = {"ratio": ratio, "theta": theta, "volume": volume, "s": s}
@@ -554,9 +576,9 @@ class DoubletSurrogate:
             out[key] = np.nan_to_num(vals[:, j], nan=0.0) if key == "error" else vals[:, j]
         if n_masks:
             above, bad = vals[:, len(have)], vals[:, len(have) + 1]
-            code = np.where(above > 0, np.maximum(code, 1), code)
-            code = np.where(bad > 0, 2, code)
-        out["code"] = code.astype(np.int8)
+            code = np.where(above > 0, worst_status(code, Status.APPROXIMATE), code)
+            code = np.where(bad > 0, np.int8(Status.NOT_CONVERGED), code)
+        out["status"] = code.astype(np.int8)
         return out
 
     def _gravity_layers(self, names):
@@ -610,14 +632,15 @@ class DoubletSurrogate:
         """Rupture distance with gravity along the axis: ``rup0`` (zero gravity, at the
         point) times q = ``rupture_gap_gravity`` / ``rupture_gap`` of the sub-grid's
         nodes, multilinear in (ratio, theta, log V*) and linear in Bo between the
-        ``bond`` nodes, q = 1 at Bo = 0; side 0 (gravity across): ``rup0``.  Code 1
-        where the point or Bo lies outside the sub-grid (its edge), 2 where a node has
-        no result."""
+        ``bond`` nodes, q = 1 at Bo = 0; side 0 (gravity across): ``rup0``.  Status
+        APPROXIMATE where the point or Bo lies outside the sub-grid (its edge),
+        NOT_CONVERGED where a node has no result, else CONVERGED."""
         if "rupture_gap_gravity" not in self.table_:
-            return rup0.copy(), np.where(bond_axial > 0, 1, 0).astype(np.int8)
+            return rup0.copy(), np.where(bond_axial > 0, np.int8(Status.APPROXIMATE),
+                                         np.int8(Status.CONVERGED)).astype(np.int8)
         sides = self._rupture_shift()
         out = rup0.copy()
-        code = np.zeros(rup0.shape, np.int8)
+        code = np.full(rup0.shape, Status.CONVERGED, np.int8)
         for sgn in (-1.0, 1.0):
             m = (side == sgn) & (bond_axial > 0)
             if not m.any():
@@ -638,7 +661,8 @@ class DoubletSurrogate:
             r = rup0[m] * q
             above = x > bonds[-1] * (1 + 1e-12)
             out[m] = r
-            code[m] = np.where(~np.isfinite(r), 2, np.where(above, 1, cds))
+            code[m] = np.where(~np.isfinite(r), np.int8(Status.NOT_CONVERGED),
+                               np.where(above, np.int8(Status.APPROXIMATE), cds))
         return out, code
 
 
@@ -657,12 +681,12 @@ class DoubletSurrogate:
         """Trilinear lookup on the fine grid of ratio slice ``jr``."""
         it, ft = self.theta_axis_.locate(theta)
         iv, fv = self.logv_axis_.locate(np.log(volume))
-        d_r = _bilinear(self._fine_grid(jr, "rupture_gap"), it, ft, iv, fv)
+        d_r = bilinear(self._fine_grid(jr, "rupture_gap"), it, ft, iv, fv)
         s = np.sqrt(np.clip(1.0 - gap / d_r, 0.0, 1.0))
         i_s, fs = self.s_axis_.locate(s)
         out = {"rupture_gap": d_r}
         for name in variables:
-            out[name] = _trilinear(self._fine_grid(jr, name), it, ft, iv, fv, i_s, fs)
+            out[name] = trilinear(self._fine_grid(jr, name), it, ft, iv, fv, i_s, fs)
         return out
 
     def predict_fixed_theta(self, gap, volume, theta, ratio=1.0, name="force"):
@@ -691,11 +715,7 @@ class DoubletSurrogate:
         s = np.sqrt(np.maximum(s2, 0.0)) * ((ax_s.n - 1) / (ax_s.hi - ax_s.lo))
         i_s = np.minimum(s.astype(np.intp), ax_s.n - 2)
         fs = s - i_s
-        flat = grid.ravel()
-        k = iv * ax_s.n + i_s
-        a = flat[k] + (flat[k + 1] - flat[k]) * fs
-        b = flat[k + ax_s.n] + (flat[k + ax_s.n + 1] - flat[k + ax_s.n]) * fs
-        val = a + (b - a) * fv
+        val = bilinear_flat(grid.ravel(), iv * ax_s.n + i_s, ax_s.n, fs, fv)
         if name == "force":
             val = np.where(s2 < 0.0, 0.0, val)
         return val
@@ -753,11 +773,12 @@ class _GridLookup:
     along volume), prepared once: ``lookup(points)`` with ``points`` name -> array, one
     entry per dim.
 
-    Coordinates outside the variable's axis are clipped to it (code 1); a NaN at a
-    corner with a positive weight gives code 2 (value NaN); dims of length 1 are taken
-    constant (code 1 where the point is not on that node).  ``stack``: a dim of ``da``
-    that is not interpolated but carried along (values (n, its size), one pass for
-    all; code 2 where any of them meets a NaN).  Returns (values, code).
+    Coordinates outside the variable's axis are clipped to it (status APPROXIMATE); a
+    NaN at a corner with a positive weight gives NOT_CONVERGED (value NaN); dims of
+    length 1 are taken constant (APPROXIMATE where the point is not on that node).
+    ``stack``: a dim of ``da`` that is not interpolated but carried along (values (n,
+    its size), one pass for all; NOT_CONVERGED where any of them meets a NaN).
+    Returns (values, status), the status an int8 :class:`~capbridge.status.Status`.
     """
 
     def __init__(self, da, stack=None):
@@ -787,14 +808,16 @@ class _GridLookup:
 
     def __call__(self, points):
         n = np.asarray(next(iter(points.values()))).size
-        code = np.zeros(n, np.int8)
+        code = np.full(n, Status.CONVERGED, np.int8)
         xs = []
         for name, c, interpolated in self.axes:
             if name not in points:
                 raise ValueError(f"unexpected dimension {name!r}")
             x = np.broadcast_to(np.asarray(points[name], float), (n,))
             tol = 1e-9 * max(1.0, np.max(np.abs(c)))
-            code = np.maximum(code, ((x < c[0] - tol) | (x > c[-1] + tol)).astype(np.int8))
+            code = worst_status(code, np.where((x < c[0] - tol) | (x > c[-1] + tol),
+                                               np.int8(Status.APPROXIMATE),
+                                               np.int8(Status.CONVERGED)))
             if interpolated:
                 x = np.clip(x, c[0], c[-1])
                 xs.append(np.log(x) if name == "volume" else x)
@@ -804,24 +827,20 @@ class _GridLookup:
         out = self.rgi(xs)
         if self.rgi_nan is not None:
             hit = self.rgi_nan(xs) > 0
-            code = np.where(hit.any(-1) if self.stack else hit, 2, code).astype(np.int8)
+            code = np.where(hit.any(-1) if self.stack else hit, np.int8(Status.NOT_CONVERGED),
+                            code).astype(np.int8)
             out = np.where(hit, np.nan, out)
         return out, code
 
 
-def _bilinear(grid, i, fi, j, fj):
-    a = grid[i, j] * (1 - fj) + grid[i, j + 1] * fj
-    b = grid[i + 1, j] * (1 - fj) + grid[i + 1, j + 1] * fj
-    return a * (1 - fi) + b * fi
-
-
-def _trilinear(grid, i, fi, j, fj, k, fk):
-    def plane(ii):
-        a = grid[ii, j, k] * (1 - fk) + grid[ii, j, k + 1] * fk
-        b = grid[ii, j + 1, k] * (1 - fk) + grid[ii, j + 1, k + 1] * fk
-        return a * (1 - fj) + b * fj
-
-    return plane(i) * (1 - fi) + plane(i + 1) * fi
+def _jsonable(v):
+    """A table attribute as JSON-friendly Python (arrays to lists, numpy scalars to
+    Python numbers)."""
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
 
 
 def default_table():

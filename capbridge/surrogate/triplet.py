@@ -88,6 +88,10 @@ from scipy.interpolate import make_interp_spline
 
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
+from capbridge.surrogate.base import SurrogateBase
+from capbridge.surrogate.grid import Descending as _Descending
+from capbridge.surrogate.grid import FineAxis as _FineAxis
+from capbridge.surrogate.grid import Grid as _Grid
 from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
                                          refine_axis, si_bond)
 from capbridge.physics.gravity import check_bond, gravity_vector, liquid_weight
@@ -143,38 +147,6 @@ def default_table():
 # --------------------------------------------------------------------------------------
 
 
-class _FineAxis:
-    """Fine axis made of ``refine`` equal steps per coarse interval.
-
-    ``locate(x)`` returns the fine interval index i, the weight of node i+1 and the
-    coarse interval; uniform coarse axes by arithmetic, others by one linear index
-    map (np.interp on the few coarse nodes), never a search on the fine grid.
-    """
-
-    def __init__(self, coarse, refine):
-        self.coarse = np.asarray(coarse, float)
-        self.refine = int(refine)
-        m = self.coarse.size
-        self.n = (m - 1) * self.refine + 1
-        u = np.arange(self.n) / self.refine                 # coarse index coordinate
-        j = np.minimum(np.floor(u).astype(int), m - 2)
-        self.nodes = self.coarse[j] + (u - j) * (self.coarse[j + 1] - self.coarse[j])
-        self.nodes[-1] = self.coarse[-1]
-        steps = np.diff(self.coarse)
-        self.uniform = bool(np.allclose(steps, steps[0], rtol=1e-9, atol=0))
-        self.lo, self.hi = float(self.coarse[0]), float(self.coarse[-1])
-        self._scale = self.refine / steps[0]
-        self._index = np.arange(m, dtype=float) * self.refine
-
-    def locate(self, x):
-        if self.uniform:
-            u = (x - self.lo) * self._scale
-        else:
-            u = np.interp(x, self.coarse, self._index)
-        i = np.minimum(np.maximum(u.astype(np.intp), 0), self.n - 2)
-        return i, u - i
-
-
 #: interpolation methods: spline degree along the gap axes and along theta, v
 #: (None: cubic where the axis has >= 4 nodes, else the highest degree the nodes allow)
 METHODS = {
@@ -210,94 +182,6 @@ def _refine(values, axes, fine_axes, method):
             else:
                 out = refine_axis(out, a, c, f.nodes)
     return np.ascontiguousarray(out)
-
-
-def _corner_offsets(strides):
-    """Flat offsets of the 2^k corners of a cell, ordered as :func:`_corner_weights`."""
-    offs = np.zeros(1, np.intp)
-    for s in strides:
-        offs = np.concatenate([offs, offs + s])
-    return offs
-
-
-def _corner_weights(fracs):
-    """(n, 2^k) multilinear weights, corner order of :func:`_corner_offsets`."""
-    w = np.ones((fracs[0].size, 1))
-    for f in fracs:
-        f = f[:, None]
-        w = np.concatenate([w * (1.0 - f), w * f], axis=1)
-    return w
-
-
-class _Grid:
-    """Values on a fine grid (shape..., nvar) and the gather that interpolates them.
-
-    ``kernel="simplex"``: piecewise-linear on the Kuhn (Freudenthal) simplices of each
-    cell: the k + 1 corners reached from the cell's base by stepping along the axes in
-    the order of decreasing fractional position, weights the differences of the sorted
-    fractions.  It is exact at the nodes, continuous, invariant under permutations of
-    the axes (the triangulation is), and needs k + 1 corners instead of the 2^k of
-    ``"multilinear"`` (6 against 32 in 5-D): that is what makes >= 1e6 lookups/s
-    possible.  Both kernels are second order in the fine step; on the refined grid their
-    difference is part of the measured refinement error.
-    """
-
-    def __init__(self, values, kernel="simplex"):
-        self.shape = values.shape[:-1]
-        self.nvar = values.shape[-1]
-        self.flat = np.ascontiguousarray(values.reshape(-1, self.nvar))
-        st = np.cumprod((1,) + self.shape[::-1])[:-1][::-1]
-        self.strides = st.astype(np.intp)
-        self.offsets = _corner_offsets(self.strides)
-        self.kernel = kernel
-
-    def __call__(self, index, fracs, order=None):
-        """Interpolated values (n, nvar) in the cells ``index`` (one int array per axis)
-        at the fractional positions ``fracs``; ``order`` (simplex kernel): the
-        :class:`_Descending` fractions of these axes, if the caller has them already."""
-        base = index[0] * self.strides[0]
-        for i, s in zip(index[1:], self.strides[1:]):
-            base = base + i * s
-        if self.kernel == "multilinear":
-            # corner by corner: a (n, 2^k, nvar) gather would not stay in cache
-            w = _corner_weights(fracs)
-            out = np.take(self.flat, base, axis=0) * w[:, :1]
-            for c in range(1, self.offsets.size):
-                out += np.take(self.flat, base + self.offsets[c], axis=0) * w[:, c:c + 1]
-            return out
-        if order is None:
-            order = _Descending()
-            for a, f in enumerate(fracs):
-                order = order.insert(f, a)
-        f, axis = order.fracs, order.axes
-        k = len(f)
-        idx = base
-        out = np.take(self.flat, idx, axis=0) * (1.0 - f[0])[:, None]
-        for m in range(k):
-            idx = idx + self.strides[axis[m]]
-            w = (f[m] - f[m + 1]) if m + 1 < k else f[m]
-            out += np.take(self.flat, idx, axis=0) * w[:, None]
-        return out
-
-
-class _Descending:
-    """Fractional positions sorted in decreasing order, with the axis of each.
-
-    Built by insertion (compare-exchanges on whole arrays, no per-point sort), so the
-    gap axes sorted once serve the 3-D, 4-D (+ theta) and 5-D (+ v) lookups.
-    """
-
-    def __init__(self, fracs=(), axes=()):
-        self.fracs, self.axes = list(fracs), list(axes)
-
-    def insert(self, frac, axis):
-        f = self.fracs + [frac]
-        a = self.axes + [np.full(frac.shape, axis, np.int8)]
-        for j in range(len(f) - 2, -1, -1):
-            swap = f[j] < f[j + 1]
-            f[j], f[j + 1] = np.maximum(f[j], f[j + 1]), np.minimum(f[j], f[j + 1])
-            a[j], a[j + 1] = np.where(swap, a[j + 1], a[j]), np.where(swap, a[j], a[j + 1])
-        return _Descending(f, a)
 
 
 def _linear_at(values, coarse, x):
@@ -425,8 +309,22 @@ def _symmetrise(pair_values, scalar_values, codes):
     return f / len(perms), sc / len(perms), cd
 
 
-class TripletSurrogate:
+def _refine3(refine):
+    """``refine`` of :class:`TripletSurrogate` checked, as three integers."""
+    r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
+    if len(r) != 3:
+        raise CapbridgeInputError(f"refine={refine!r}: give one integer or three "
+                                  "(gaps, theta, v)")
+    return tuple(check_int("refine", x, 1, MAX_REFINE,
+                           hint="fine-grid steps per table interval") for x in r)
+
+
+class TripletSurrogate(SurrogateBase):
     """Interpolating surrogate of a coalesced-triplet table (fit / predict).
+
+    Follows the surrogate contract of :mod:`capbridge.surrogate.base` (NotFittedError,
+    ``has_gravity_``, :meth:`summary`, statuses, the no-result rule: no triplet status
+    is RUPTURED, a point without a result has NaN numbers).
 
     Parameters
     ----------
@@ -454,12 +352,8 @@ class TripletSurrogate:
                  clip_hint="out_of_range='clip'"):
         check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
-        r = (refine,) * 3 if np.ndim(refine) == 0 else tuple(refine)
-        if len(r) != 3:
-            raise CapbridgeInputError(f"refine={refine!r}: give one integer or three "
-                                      "(gaps, theta, v)")
-        self.refine = tuple(check_int("refine", x, 1, MAX_REFINE,
-                                      hint="fine-grid steps per table interval") for x in r)
+        _refine3(refine)        # checked here, stored as given (scikit-learn's clone)
+        self.refine = refine
         self.method = method
         self.out_of_range = out_of_range
         self.clip_hint = clip_hint
@@ -497,14 +391,15 @@ class TripletSurrogate:
         self.gaps_ = gaps
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.v_ = np.asarray(ds["v"].values, float)
-        rg, rt, rv = self.refine if self.method != "linear" else (1, 1, 1)
+        self.refine_ = _refine3(self.refine)
+        rg, rt, rv = self.refine_ if self.method != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
                       _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
         coarse = [gaps, gaps, gaps, self.theta_, self.v_]
         n_fine = np.prod([a.n for a in self.axes_])
         if n_fine * (len(GRID_VARIABLES) + 1) * 8 > MAX_GRID_BYTES:
             raise CapbridgeInputError(
-                f"refine={self.refine} makes a fine grid of {n_fine:,} nodes "
+                f"refine={self.refine_} makes a fine grid of {n_fine:,} nodes "
                 f"(> {MAX_GRID_BYTES / 1e6:g} MB); use a smaller refine")
 
         vals, has, code = _node_data(ds)
@@ -689,7 +584,7 @@ class TripletSurrogate:
         for ``capbridge info``."""
         self._check_fitted()
         cells = np.bincount(self.cell_code_.ravel(), minlength=4)
-        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine),
+        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine_),
                 "gaps": self.gaps_.tolist(), "theta": self.theta_.tolist(),
                 "v": self.v_.tolist(), "coalescence_volume": self.coalescence_source_,
                 "cells": {"converged": int(cells[0]), "above_tolerance": int(cells[1]),
@@ -716,10 +611,6 @@ class TripletSurrogate:
                     else refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
-
-    def _check_fitted(self):
-        if not hasattr(self, "table_"):
-            raise RuntimeError("TripletSurrogate is not fitted: call fit(table) first")
 
     @property
     def bounds_(self):
@@ -977,9 +868,10 @@ class TripletSurrogate:
 
     def _gravity_lookup(self, g, t, v, volume):
         """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
-        ``volume`` (lookup units), the cell's largest sum-rule residual and a code per
-        point: 0 available, 1 v outside the response's range (nearest v, approximate),
-        2 not available (a node of the cell has no response)."""
+        ``volume`` (lookup units), the cell's largest sum-rule residual and a status
+        per point (int8 :class:`~capbridge.status.Status`): CONVERGED (available),
+        APPROXIMATE (v outside the response's range: nearest v), NOT_CONVERGED (not
+        available: a node of the cell has no response)."""
         gv = self.gravity_v_
         clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
         vq = np.clip(v, gv[0], gv[-1])
@@ -992,7 +884,9 @@ class TripletSurrogate:
         C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
         cell = tuple(idx)
         bad = self.gravity_cell_bad_[cell] > 0
-        code = np.where(bad, 2, np.where(clipped, 1, 0)).astype(np.int8)
+        code = np.where(bad, np.int8(Status.NOT_CONVERGED),
+                        np.where(clipped, np.int8(Status.APPROXIMATE),
+                                 np.int8(Status.CONVERGED))).astype(np.int8)
         return G, C, self.gravity_cell_residual_[cell], code
 
     def gravity_summary(self):
@@ -1187,9 +1081,10 @@ class TripletSurrogate:
             resid[on] = resid_on
             st = status[on]
             has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
-            approx = (code == 1) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
+            approx = (code == Status.APPROXIMATE) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
             st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
-            st = np.where((code == 2) & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
+            st = np.where((code == Status.NOT_CONVERGED)
+                          & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
                           np.int8(Status.NOT_CONVERGED), st)
             status[on] = st
             nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
@@ -1236,6 +1131,7 @@ class TripletSurrogate:
         """
         from capbridge.dimensionless import force_scale, pressure_scale
 
+        self._check_fitted()
         slip = "SI units expected: radii in m, surface_tension in N/m (a unit slip?)"
         R = check_range("predict_si radius", radius, *SI_RADIUS_RANGE, units=" m",
                         hint=slip)
