@@ -153,9 +153,13 @@ def rows_of_ids(O):
 class CapbridgeEngine:
     """Volume-controlled capillary bridges from capbridge's doublet table, in YADE.
 
-    See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters and
-    :data:`~capbridge.yade.engine_options.OPTION_RULES` for what each allows (checked
-    here, when the engine is made).
+    Made from keyword groups with :meth:`configure` (:mod:`capbridge.yade.config`:
+    ``liquid=WaterContent(0.01)``, ``coalescence=Coalescence(...)``, ``speed=Speed(...)``,
+    ...) or, the shim kept for scenes and restart files, from the 28 flat keywords
+    below (mapped onto the same groups, :meth:`EngineConfig.from_flat`; the groups are
+    ``self.config``).  See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for
+    the parameters and :data:`~capbridge.yade.engine_options.OPTION_RULES` for what
+    each allows (checked here, when the engine is made).
     The engine reads the grains (radii, materials, masses) at its first step; create it
     before or after the bodies.  Erased wet spheres leave with their liquid (ledger);
     spheres added later are refused with an error (give ``ids`` or call :meth:`reset`).
@@ -514,6 +518,7 @@ class CapbridgeEngine:
             except KeyError as exc:
                 raise ValueError(f"initial_pairs: body {exc} is not a wet sphere") from None
         first = not self.model.initialised
+        self._step_pos = pos                  # the centres this step's forces belong to (VTK)
         scene_geometry.before_update(self, O, pos)     # periodic cell follows O.cell
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
@@ -841,6 +846,15 @@ class CapbridgeEngine:
                                   bridges_corrected=self.gravity.n_corrected)
             out["periodic"] = self._cell.h.tolist() if self._cell is not None else None
         return out
+
+    def snapshot(self):
+        """The bridges of the last step as explicit data (what
+        :func:`capbridge.yade.engine_vtk.bridge_arrays` takes): the bridge model, the
+        step's geometry, the centres its forces were computed at, the wet spheres' ids,
+        the wall bridges and the coalescence report."""
+        return {"model": self.model, "geom": self._last_geom,
+                "pos": getattr(self, "_step_pos", None), "ids": getattr(self, "ids", None),
+                "walls": self.walls, "report": self.coalescence_report}
 
     def write_vtk(self, path, overwrite=False):
         """Write the current bridges (sphere-sphere and wall) to a VTK file (``.vtp`` or
