@@ -520,5 +520,121 @@ def _scene_case_names(path):
     return []
 
 
+# ------------------------------------------------------------------ tampered tables (item 3)
+
+def _tamper(src, dst, edit):
+    """A copy of ``src`` at ``dst`` with ``edit(netCDF4.Dataset)`` applied in place."""
+    import netCDF4
+
+    shutil.copy(src, dst)
+    with netCDF4.Dataset(dst, "a") as nc:
+        edit(nc)
+    return dst
+
+
+def _set_units(var, units):
+    return lambda nc: nc[var].setncattr("units", units)
+
+
+def _set_attr(name, value):
+    return lambda nc: nc.setncattr(name, value)
+
+
+def _del_checksums(nc):
+    for k in ("table_sha256", "data_sha256"):
+        if k in nc.ncattrs():
+            nc.delncattr(k)
+
+
+def _and(*edits):
+    def run(nc):
+        for e in edits:
+            e(nc)
+    return run
+
+
+def _scale(var, factor, index=None):
+    def run(nc):
+        v = nc[var]
+        a = v[:]
+        if index is None:
+            v[:] = a * factor
+        else:
+            a[index] = a[index] * factor
+            v[:] = a
+    return run
+
+
+def _negate_node(var):
+    """One finite, positive node of ``var`` made negative."""
+    def run(nc):
+        v = nc[var]
+        a = np.ma.filled(v[:].astype(float), np.nan)
+        k = np.flatnonzero(np.isfinite(a.ravel()) & (a.ravel() > 0))[0]
+        a.ravel()[k] *= -1
+        v[:] = a
+    return run
+
+
+def _table_cases(with_yade):
+    data = ROOT / "data"
+    dbl_t, tri_t, coal_t = (data / "doublet_table.nc", data / "triplet_table.nc",
+                            data / "triplet_coalescence.nc")
+    lookup_doublet = ("lookup", "doublet", "--input", "{pts_d}", "--output", "{out}",
+                      "--table", "{t}")
+    lookup_triplet = ("lookup", "triplet", "--input", "{pts_t}", "--output", "{out}",
+                      "--table", "{t}")
+    lookup_triplet_c = ("lookup", "triplet", "--input", "{pts_t}", "--output", "{out}",
+                        "--coalescence-table", "{t}")
+
+    edits = [
+        # (name, table, edit, command, allowed?)  -- every one must be refused
+        ("triplet f12 units 'N'", tri_t, _set_units("f12", "N"), lookup_triplet),
+        ("triplet theta units 'radian'", tri_t, _set_units("theta", "radian"), lookup_triplet),
+        ("coalescence theta units 'radian'", coal_t, _set_units("theta", "radian"),
+         lookup_triplet_c),
+        ("coalescence V_coal_pair units 'mm3'", coal_t, _set_units("V_coal_pair", "mm3"),
+         lookup_triplet_c),
+        ("doublet force units 'N'", dbl_t, _set_units("force", "N"), lookup_doublet),
+        ("triplet error model replaced (holdout max 1e-9)", tri_t,
+         _set_attr("holdout_max_rel_error_pair_force_by_volume", "1e-9"), ("info", "--table", "{t}")),
+        ("doublet error model replaced (holdout max 1e-9)", dbl_t,
+         _set_attr("holdout_max_rel_error_force_ratio1_band0", 1e-9), ("info", "--table", "{t}")),
+        ("doublet grid attribute edited", dbl_t, _set_attr("grid", "{}"), lookup_doublet),
+        ("triplet checksums deleted", tri_t, _del_checksums, lookup_triplet),
+        ("coalescence checksums deleted", coal_t, _del_checksums, lookup_triplet_c),
+        ("doublet checksums deleted", dbl_t, _del_checksums, lookup_doublet),
+    ]
+    physical = [
+        # checksum deleted AND the user allows unverified tables: the physics still refuses
+        ("negative V_coal_pair node", coal_t, _negate_node("V_coal_pair"), lookup_triplet_c),
+        ("triplet gravity response x10", tri_t, _scale("force_gravity_gradient", 10.0),
+         lookup_triplet),
+        ("triplet f12 sign-flipped", tri_t, _scale("f12", -1.0), lookup_triplet),
+        ("doublet weight share x10", dbl_t, _scale("weight_share_axial", 10.0), lookup_doublet),
+        ("triplet units 'N' on f12", tri_t, _set_units("f12", "N"), lookup_triplet),
+    ]
+
+    def make(name, table, edit, command, allow):
+        def run(tmp):
+            t = _tamper(table, tmp / table.name, _and(_del_checksums, edit) if allow else edit)
+            pts_d = tmp / "pd.csv"
+            pts_d.write_text("d,V,theta\n0.1,0.05,30\n")
+            pts_t = tmp / "pt.csv"
+            pts_t.write_text("d12,d13,d23,V,theta\n0.0,0.0,0.1,0.35,30\n")
+            before = digest(t)
+            args = [a.format(t=t, pts_d=pts_d, pts_t=pts_t, out=tmp / "o.csv") for a in command]
+            if allow:
+                args.append("--allow-unverified-table")
+            r = cli(*args)
+            if digest(t) != before:
+                return Result("lost", "the table file was changed")
+            return r
+        return Case("3", f"table: {name}" + (" (checksum deleted, unverified allowed)"
+                                              if allow else ""), "error", run)
+
+    return [make(*e, False) for e in edits] + [make(*p, True) for p in physical]
+
+
 if __name__ == "__main__":
     sys.exit(main())

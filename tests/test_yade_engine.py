@@ -13,7 +13,7 @@ and checks what YADE applied against capbridge's own lookup:
   accounted for under both rules;
 * the paper's triplet: coalescence reported (state and log line) above, not below, the
   volume the criterion gives;
-* the scene of ``docs/yade_plugin.md`` runs as printed.
+* the scene of ``docs/guide.md`` runs as printed.
 """
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ from capbridge.dem.bridges import default_table_path
 from capbridge.status import Status
 
 SCENES = Path(__file__).parent / "yade_scenes"
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "yade_plugin.md"
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "guide.md"
 REL_TOL = 5e-3
 GAMMA = 0.073
 
@@ -221,12 +221,12 @@ def test_triplet_coalescence_is_reported_never_silent():
 
 @pytest.mark.parametrize("mode", ["python", "launcher"])
 def test_minimal_scene_of_the_docs_runs_as_printed(mode):
-    """The scene printed in docs/yade_plugin.md, run with the venv's Python and through
+    """The scene printed in docs/guide.md, run with the venv's Python and through
     ``yade -n -x`` (with capbridge and the venv's packages on PYTHONPATH, as the doc
     says)."""
     scene = (SCENES / "minimal_capbridge_scene.py").read_text(encoding="utf-8")
     doc = DOCS.read_text(encoding="utf-8")
-    assert scene.strip() in doc, "docs/yade_plugin.md must show the tested scene verbatim"
+    assert scene.strip() in doc, "docs/guide.md must show the tested scene verbatim"
     run = _run("minimal_capbridge_scene.py", require_result=False, mode=mode)
     out = run.stdout
     m = re.search(r"bridges: (\d+) formed: (\d+) ruptured: (\d+)", out)

@@ -76,7 +76,7 @@ def test_wall_force_equals_exact_sphere_plane_bridge(wall_run, k, partner):
     # up to 98 % of the rupture gap: nearer, the exact solver's own solutions jump
     # between branches for V* ~ 0.062-0.066 at (20, 40) deg (F* at 0.99 d*_rupt: 0.101,
     # 0.073, 0.074, 0.102 for V* = 0.060, 0.062, 0.063, 0.064), and the slice inherits
-    # that node (engine off by up to 3 % there; reported, see docs/yade_plugin.md)
+    # that node (engine off by up to 3 % there; reported, see docs/validation.md)
     sel = np.flatnonzero(alive & (gaps <= 0.98 * res["d_rupt_star"]))[::4]
     exact = solve_sphere_wall(np.maximum(gaps[sel], 0.0), res["vstar"], res["theta_s"],
                               res["theta_w"])

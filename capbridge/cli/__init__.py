@@ -674,10 +674,16 @@ def cmd_demo(args):
     table = Path(args.table)
     if not table.exists():
         raise CapbridgeInputError(f"table {table} not found; make it with `capbridge generate doublet`")
+    triplet = None if args.triplet_table in ("", "none") else Path(args.triplet_table)
+    if triplet is not None and not triplet.exists():
+        raise CapbridgeInputError(f"triplet table {triplet} not found; make it with "
+                                  "`capbridge generate triplet` or give --triplet-table none")
+    coal = DEFAULT_COALESCENCE_TABLE if DEFAULT_COALESCENCE_TABLE.exists() else None
     out = Path(args.output_dir)
     if out.exists() and not out.is_dir():
         raise CapbridgeInputError(f"--output-dir {out} is a file, not a directory")
-    return run_demo(args.table, args.output_dir)
+    return run_demo(args.table, args.output_dir, triplet_table=triplet,
+                    coalescence_table=coal, packing=not args.no_yade)
 
 
 def cmd_coalescence(args):
@@ -977,8 +983,14 @@ def build_parser():
                       help="a table (default: every shipped table in data/)")
     info.set_defaults(func=cmd_info_table)
 
-    demo = sub.add_parser("demo", help="F*(d*) from the shipped table beside the exact solution")
-    demo.add_argument("--table", default=str(DEFAULT_TABLE))
+    demo = sub.add_parser("demo", help="the main job on the shipped tables: doublets beside "
+                          "the exact solution, the paper's coalesced triplet, a wet packing "
+                          "in YADE (figures and CSV in --output-dir)")
+    demo.add_argument("--table", default=str(DEFAULT_TABLE), help="doublet table")
+    demo.add_argument("--triplet-table", default=str(DEFAULT_TRIPLET_TABLE),
+                      help="triplet table ('none': skip the triplets)")
+    demo.add_argument("--no-yade", action="store_true",
+                      help="skip the wet packing in YADE (skipped anyway without YADE)")
     demo.add_argument("--output-dir", default="out")
     demo.set_defaults(func=cmd_demo)
 

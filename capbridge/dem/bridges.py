@@ -372,7 +372,7 @@ class SceneTable:
 
 @dataclasses.dataclass
 class LiquidRule:
-    """How much liquid a bridge gets when it forms (see ``docs/yade_plugin.md``).
+    """How much liquid a bridge gets when it forms (see ``docs/guide.md``, "Liquid rules").
 
     Exactly one of:
 

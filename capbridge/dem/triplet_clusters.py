@@ -4,7 +4,7 @@ Plain numpy bookkeeping (no YADE here), used by
 :class:`~capbridge.yade.engine.CapbridgeEngine` on top of its
 :class:`~capbridge.dem.bridges.BridgeModel`.
 
-The rule (documented in ``docs/yade_plugin.md``, "Coalesced triplets")
+The rule (documented in ``docs/guide.md``, "Coalesced triplets")
 --------------------------------------------------------------------
 **Merge.**  At every coalescence check the detector
 (:func:`~capbridge.dem.coalescence_detect.find_coalescence`) reports the bridges

@@ -114,8 +114,8 @@ ENGINE_PARAMETERS = {
     "triplet_forces": (False, "coalesced triplets get the triplet table's pair forces "
                               "instead of their bridges' doublet forces (True; opt-in: in "
                               "a settling packing clusters still merge and split at "
-                              "almost every check, see \"Coalesced triplets\") or False: "
-                              "report only"),
+                              "almost every check, see docs/guide.md, \"Coalesced "
+                              "triplets\") or False: report only"),
     "triplet_table": (None, "triplet table (path); default the shipped "
                             "data/triplet_table.nc, read at the first coalesced triplet"),
     "triplet_split": ("table", "how a split cluster shares its liquid: 'table' (equal "
