@@ -60,7 +60,6 @@ def _check_cell(eng):
 def before_update(eng, O, pos):
     """Before the bridges are updated: follow a deforming periodic cell (and rebuild
     the near-pair list when cell and grains together may have moved a skin)."""
-    eng._step_pos = pos                    # the centres this step's forces belong to (VTK)
     cell = eng._cell
     if cell is None:
         return

@@ -4,7 +4,11 @@ Usage inside a YADE scene (``docs/yade_plugin.md`` has the parameters and a scen
 copy)::
 
     from capbridge.yade.engine import CapbridgeEngine
-    cap = CapbridgeEngine(theta=30.0, gamma=0.073, bridge_volume=2e-12)
+    from capbridge.yade.config import BridgeVolume, Speed
+    cap = CapbridgeEngine.configure(theta=30.0, gamma=0.073, liquid=BridgeVolume(2e-12),
+                                    speed=Speed(refresh_every=1))
+    # the same engine with the flat keywords (kept, see capbridge.yade.config):
+    # cap = CapbridgeEngine(theta=30.0, gamma=0.073, bridge_volume=2e-12)
     O.engines = [ForceResetter(),
                  InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
                  InteractionLoop([Ig2_Sphere_Sphere_ScGeom(), Ig2_Box_Sphere_ScGeom()],
@@ -86,27 +90,25 @@ is read at the first coalesced triplet only: a scene without one does no triplet
 """
 from __future__ import annotations
 
-import contextlib
-import json
 import logging
 import time
-import uuid
-from contextlib import chdir  # YADE reads its capillary files from the working directory
-from pathlib import Path
 
 import numpy as np
 
 from capbridge.dem import scene_geometry
-from capbridge.yade import engine_options, state_io
+from capbridge.yade import engine_options, persistence, state_io
+from capbridge.yade.config import ENGINE_PARAMETERS, EngineConfig, is_group
 from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem.coalescence_detect import find_coalescence
 from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY, LiquidGravity,
                                                  newton_gravity)
 from capbridge.validation import CapbridgeInputError
+from capbridge.yade.persistence import CapbridgeStateError, install_save_hooks
 from capbridge.yade.registry import ENGINES, get_engine, set_factory
+from capbridge.yade.suction import suction_law2
 
 __all__ = ["CapbridgeEngine", "suction_law2", "get_engine", "ENGINE_PARAMETERS",
-           "CapbridgeStateError", "install_save_hooks", "MAX_VOID_RATIO"]
+           "EngineConfig", "CapbridgeStateError", "install_save_hooks", "MAX_VOID_RATIO"]
 
 log = logging.getLogger("capbridge.yade")
 
@@ -115,174 +117,14 @@ log = logging.getLogger("capbridge.yade")
 #: :data:`capbridge.yade.engine_options.MAX_VOID_RATIO`
 MAX_VOID_RATIO = engine_options.MAX_VOID_RATIO
 
-#: prefix of the engine's entries in ``O.tags``
-_TAG = "capbridge"
-
-
-class CapbridgeStateError(RuntimeError):
-    """The scene and the engine's state do not belong together (e.g. a scene loaded
-    without capbridge's saved state)."""
-
-#: name -> (default, meaning); the table of docs/yade_plugin.md is made from this.
-ENGINE_PARAMETERS = {
-    "theta": (0.0, "contact angle [deg]: one number, or a dict {material label or id: "
-                   "angle} (a pair of different angles gets the exact bridge of that pair, "
-                   "solved at scene start)"),
-    "gamma": (0.073, "liquid-gas surface tension [N/m]"),
-    "bridge_volume": (None, "fixed rule: every bridge that forms gets this volume [m^3]"),
-    "bridge_volume_star": (None, "fixed rule: every bridge gets V = V* r^3, r its smaller "
-                                 "radius"),
-    "liquid_volume": (None, "total liquid [m^3], on the grains' films at the start "
-                            "(in proportion to grain volume)"),
-    "water_content": (None, "total liquid as mass of liquid / mass of grains, a fraction "
-                            "(0.01 = 1 %; at most the void ratio 1 the pores of any sphere "
-                            "packing hold)"),
-    "saturation": (None, "total liquid as degree of saturation S_r = V_liquid / V_pores, "
-                         "in (0, 1] (needs sample_volume)"),
-    "sample_volume": (None, "volume of the sample [m^3], for saturation (and to report "
-                            "the current saturation)"),
-    "liquid_density": (None, "liquid density [kg/m^3]: liquid mass -> volume for "
-                             "water_content and, as the density difference liquid - gas, "
-                             "the liquid's weight under gravity; default (None) water: "
-                             "1000 for water_content, 997 (water - air at 20 C) for the "
-                             "weight"),
-    "gravity_correction": ("auto", "gravity on the liquid (g read from NewtonIntegrator."
-                                   "gravity at every refresh): 'auto' applies it to the "
-                                   "bridges where it exceeds the doublet table's error, "
-                                   "'on' to every bridge, 'off' never"),
-    "conserve_liquid": (None, "True: liquid conserved (ruptured bridges return it to their "
-                              "grains, new bridges take it from them); False: every bridge "
-                              "gets the same fixed volume; default True for a total liquid, "
-                              "False for a bridge volume"),
-    "film_fraction": (0.5, "conserving rule: fraction of each grain's film a new bridge "
-                           "takes (split among the bridges a grain forms in one step)"),
-    "formation_gap": (0.0, "a bridge forms when the gap between surfaces is <= this [m]"),
-    "initial_wet_gap": (None, "at the first step, pairs with gap <= this [m] get a bridge "
-                              "(default formation_gap)"),
-    "initial_pairs": (None, "at the first step, exactly these pairs of body ids get a bridge "
-                            "(instead of initial_wet_gap)"),
-    "refresh_every": (1, "update bridges and forces every N steps (forces held constant, "
-                         "added to the permanent forces, in between)"),
-    "force_tolerance": (0.0, "0: every wet grain's force is added (addF) every step, exact; "
-                             "> 0: a bridge's force vector is handed to YADE again only when "
-                             "it has changed by more than this fraction of its magnitude "
-                             "(added to the permanent forces meanwhile): fewer calls into "
-                             "YADE, forces off by up to that fraction"),
-    "coalescence": (True, "detect coalesced bridges (reported; with triplet_forces their "
-                          "triplets get the triplet table's forces)"),
-    "triplet_forces": (False, "coalesced triplets get the triplet table's pair forces "
-                              "instead of their bridges' doublet forces (True; opt-in: in "
-                              "a settling packing clusters still merge and split at "
-                              "almost every check, see docs) or False: report only"),
-    "triplet_table": (None, "triplet table (path); default the shipped "
-                            "data/triplet_table.nc, read at the first coalesced triplet"),
-    "triplet_split": ("table", "how a split cluster shares its liquid: 'table' (equal "
-                               "Laplace pressure on the doublet table, milliseconds), "
-                               "'exact' (equal pressure, exact doublets, seconds per "
-                               "split) or 'merge_volumes' (the bridges' volumes at the "
-                               "merge, no solve)"),
-    "coalescence_every": (100, "steps between coalescence checks"),
-    "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
-                    "data/doublet_table.nc"),
-    "ids": (None, "body ids of the wet spheres (default every sphere)"),
-    "skin": (None, "Verlet skin of the near-pair list [m] (default 0.1 x smallest radius)"),
-    "ratio_step": (0.01, "ratio node spacing for continuous size distributions"),
-    "label": ("capbridge", "name of the engine (PyRunner label, registry key)"),
-    "walls": (False, "bridges to walls: True wets every Wall, Box and Facet body (angle from "
-                     "its material through theta), a list of body ids those only, False none"),
-}
+#: name -> (default, meaning) of the keywords: :data:`capbridge.yade.config.ENGINE_PARAMETERS`
+#: (the option table of docs/yade_plugin.md is made from it)
+ENGINE_PARAMETERS = ENGINE_PARAMETERS
 
 
 def _runner(label):
     """What the PyRunner runs: the engine of ``label``'s step."""
     get_engine(label).step()
-
-
-def _tag_key(label, what):
-    return f"{_TAG}:{label}:{what}"
-
-
-def _tag_get(O, key):
-    try:
-        return O.tags[key]
-    except KeyError:
-        return None
-
-
-def _pyrunners(O, label):
-    """Positions in ``O.engines`` of the PyRunners labelled ``label``, and the engines."""
-    engs = list(O.engines)
-    return [k for k, e in enumerate(engs)
-            if type(e).__name__ == "PyRunner" and e.label == label], engs
-
-
-@contextlib.contextmanager
-def _stashed(O):
-    """Write every running engine's state into ``O.tags`` for a save, then mark the
-    live scene as live again (the saved file carries a different mark, so the engine
-    knows it was loaded)."""
-    done = []
-    for eng in list(ENGINES.values()):
-        if _pyrunners(O, eng.label)[0]:
-            eng._stash(O)
-            done.append(eng)
-    try:
-        yield
-    finally:
-        for eng in done:
-            if eng._live is not None:
-                O.tags[_tag_key(eng.label, "live")] = eng._live
-
-
-def install_save_hooks():
-    """Wrap YADE's ``Omega.save`` and ``Omega.saveTmp`` so that the engines' states go
-    into the saved scene (idempotent; done when an engine is made).  Saving through
-    YADE's C++ side only (e.g. the Qt controller's save button) bypasses them."""
-    _, wrapper = _yade()
-    om = wrapper.Omega
-    if getattr(om, "_capbridge_hooked", False):
-        return
-    orig_save, orig_tmp = om.save, om.saveTmp
-
-    def save(self, *args, **kw):
-        with _stashed(self):
-            return orig_save(self, *args, **kw)
-
-    def save_tmp(self, *args, **kw):
-        with _stashed(self):
-            return orig_tmp(self, *args, **kw)
-
-    save.__doc__ = (orig_save.__doc__ or "") + "\n(capbridge: engine states saved in O.tags)"
-    save_tmp.__doc__ = (orig_tmp.__doc__ or "") + "\n(capbridge: engine states saved in O.tags)"
-    om.save, om.saveTmp = save, save_tmp
-    om._capbridge_hooked = True
-
-
-def _jsonable(v):
-    """Parameters as plain JSON values (numpy scalars and arrays to Python)."""
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, (list, tuple)):
-        return [_jsonable(x) for x in v]
-    return v
-
-
-def _theta_to_json(theta):
-    """Contact angles as JSON (material keys keep their type: label or id; a key of
-    another type, e.g. a Material object, cannot be saved: None)."""
-    if isinstance(theta, dict):
-        if not all(isinstance(k, (str, int)) for k in theta):
-            return None
-        return {"by_material": [[_jsonable(k), float(v)] for k, v in theta.items()]}
-    return float(theta)
-
-
-def _theta_from_json(theta):
-    if isinstance(theta, dict):
-        return {k: v for k, v in theta["by_material"]}
-    return theta
 
 
 def _yade():
@@ -311,9 +153,13 @@ def rows_of_ids(O):
 class CapbridgeEngine:
     """Volume-controlled capillary bridges from capbridge's doublet table, in YADE.
 
-    See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters and
-    :data:`~capbridge.yade.engine_options.OPTION_RULES` for what each allows (checked
-    here, when the engine is made).
+    Made from keyword groups with :meth:`configure` (:mod:`capbridge.yade.config`:
+    ``liquid=WaterContent(0.01)``, ``coalescence=Coalescence(...)``, ``speed=Speed(...)``,
+    ...) or, the shim kept for scenes and restart files, from the 28 flat keywords
+    below (mapped onto the same groups, :meth:`EngineConfig.from_flat`; the groups are
+    ``self.config``).  See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for
+    the parameters and :data:`~capbridge.yade.engine_options.OPTION_RULES` for what
+    each allows (checked here, when the engine is made).
     The engine reads the grains (radii, materials, masses) at its first step; create it
     before or after the bodies.  Erased wet spheres leave with their liquid (ledger);
     spheres added later are refused with an error (give ``ids`` or call :meth:`reset`).
@@ -347,20 +193,17 @@ class CapbridgeEngine:
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
                  triplet_split="table", gravity_correction="auto"):
-        # every keyword checked here, in one place (engine_options): one line naming
-        # the keyword and what is allowed
-        opts = engine_options.check_options(
-            theta=theta, gamma=gamma, bridge_volume=bridge_volume,
-            bridge_volume_star=bridge_volume_star, liquid_volume=liquid_volume,
-            water_content=water_content, saturation=saturation, sample_volume=sample_volume,
-            liquid_density=liquid_density, conserve_liquid=conserve_liquid,
-            film_fraction=film_fraction, formation_gap=formation_gap,
-            initial_wet_gap=initial_wet_gap, initial_pairs=initial_pairs,
-            refresh_every=refresh_every, force_tolerance=force_tolerance,
-            coalescence=coalescence, coalescence_every=coalescence_every, table=table,
-            ids=ids, skin=skin, ratio_step=ratio_step, label=label,
-            triplet_forces=triplet_forces, triplet_table=triplet_table, walls=walls,
-            triplet_split=triplet_split, gravity_correction=gravity_correction)
+        # the 28 flat keywords (the shim of the keyword groups, capbridge.yade.config):
+        # every one checked here, in one place (engine_options), one line naming the
+        # keyword and what is allowed; the groups are kept as self.config
+        flat = {k: v for k, v in locals().items() if k in ENGINE_PARAMETERS}
+        for k, v in flat.items():
+            if is_group(v):
+                raise CapbridgeInputError(
+                    f"{k}={type(v).__name__}(...) is a keyword group: give groups to "
+                    "CapbridgeEngine.configure(...), or the flat keywords here")
+        self.config = EngineConfig.from_flat(**flat)
+        opts = engine_options.check_options(**flat)
         self.theta = theta
         self.gamma = opts["gamma"]
         self.amount = {k: opts[k] for k in engine_options.LIQUID_AMOUNTS}
@@ -414,13 +257,8 @@ class CapbridgeEngine:
         self._parts = {}                      # extra state: name -> (get, set)
         self.register_state("clusters", self._clusters_get, self._clusters_set)
         self.register_state("gravity", self.gravity.get_state, self.gravity.set_state)
-        self._params = {k: _jsonable(v) for k, v in locals().items()
-                        if k in ENGINE_PARAMETERS and k not in ("table", "theta")}
-        # the shipped table by name, so that a saved scene loads on another machine
-        self._params["table"] = ("default" if table is None else
-                                 str(table) if isinstance(table, (str, Path)) else None)
-        self._params["theta"] = _theta_to_json(theta)
-        self._params["triplet_table"] = None if triplet_table is None else str(triplet_table)
+        # what a saved scene holds (the flat keywords, as JSON: capbridge.yade.persistence)
+        self._params = persistence.params_json(flat)
         old = ENGINES.get(self.label)
         if old is not None and old is not self and old._in_scene():
             raise CapbridgeInputError(
@@ -433,28 +271,42 @@ class CapbridgeEngine:
             pass
 
     @classmethod
+    def configure(cls, theta=0.0, gamma=0.073, *, liquid=None, formation=None, bodies=None,
+                  coalescence=None, gravity=None, speed=None, **flat):
+        """The engine configured in keyword groups (:mod:`capbridge.yade.config`)::
+
+            CapbridgeEngine.configure(theta=20, gamma=0.073, liquid=WaterContent(0.01),
+                                      coalescence=Coalescence(every=100),
+                                      speed=Speed(refresh_every=10))
+
+        ``liquid`` one of ``BridgeVolume``, ``BridgeVolumeStar``, ``LiquidVolume``,
+        ``WaterContent``, ``Saturation``; ``formation`` a ``Formation``, ``bodies`` a
+        ``Bodies``, ``coalescence`` a ``Coalescence``, ``gravity`` a
+        ``GravityCorrection``, ``speed`` a ``Speed``; the top-level values
+        (``liquid_density``, ``table``, ``label``) and the flat keywords of the groups
+        not given as keywords.  A flat keyword beside its own group is an error.  The
+        engine is the one the flat keywords make (:meth:`EngineConfig.flat`): the same
+        parameters, saved state and forces."""
+        return cls.from_config(EngineConfig.build(
+            theta, gamma, liquid=liquid, formation=formation, bodies=bodies,
+            coalescence=coalescence, gravity=gravity, speed=speed, **flat))
+
+    @classmethod
+    def from_config(cls, config):
+        """The engine of an :class:`~capbridge.yade.config.EngineConfig`."""
+        if not isinstance(config, EngineConfig):
+            raise CapbridgeInputError(f"config={config!r} is not an EngineConfig")
+        eng = cls(**config.flat())
+        eng.config = config
+        return eng
+
+    @classmethod
     def from_scene(cls, label="capbridge"):
         """The engine saved in the current scene's ``O.tags`` under ``label`` (after
         ``O.load`` in a new process): made again from its saved parameters; its
         state is read at its first step."""
         yade, _ = _yade()
-        text = _tag_get(yade.Omega(), _tag_key(label, "params"))
-        if text is None:
-            raise CapbridgeStateError(
-                f"no CapbridgeEngine {label!r} in this process and none saved in the scene: "
-                f"create it (CapbridgeEngine(..., label={label!r})) before running")
-        params = json.loads(text)
-        if params.get("table") is None or params.get("theta") is None:
-            what = ("a table object" if params.get("table") is None
-                    else "Material objects as keys of theta")
-            raise CapbridgeStateError(
-                f"CapbridgeEngine {label!r} was made with {what}, which the scene cannot "
-                f"hold: create it again the same way (label={label!r}) after O.load and "
-                "before running; its state is then read from the scene")
-        params["theta"] = _theta_from_json(params["theta"])
-        if params["table"] == "default":
-            params["table"] = None
-        return cls(**params)
+        return cls(**persistence.saved_params(yade.Omega(), label))
 
     def register_state(self, name, get, set_):
         """Add a part to what is saved with the scene and restored after a load:
@@ -469,7 +321,7 @@ class CapbridgeEngine:
             yade, _ = _yade()
         except ImportError:
             return False
-        return bool(_pyrunners(yade.Omega(), self.label)[0])
+        return bool(persistence.pyrunners(yade.Omega(), self.label)[0])
 
     # ----------------------------------------------------------------------- YADE side
     def pyrunner(self):
@@ -492,9 +344,9 @@ class CapbridgeEngine:
             yade, _ = _yade()
             O = yade.Omega()
             # O.tags cannot delete a key: an empty state means "none"
-            if _tag_get(O, _tag_key(self.label, "state")) is not None:
-                O.tags[_tag_key(self.label, "state")] = ""
-                O.tags[_tag_key(self.label, "live")] = ""
+            if persistence.tag_get(O, persistence.tag_key(self.label, "state")) is not None:
+                O.tags[persistence.tag_key(self.label, "state")] = ""
+                O.tags[persistence.tag_key(self.label, "live")] = ""
         except ImportError:
             pass
 
@@ -666,6 +518,7 @@ class CapbridgeEngine:
             except KeyError as exc:
                 raise ValueError(f"initial_pairs: body {exc} is not a wet sphere") from None
         first = not self.model.initialised
+        self._step_pos = pos                  # the centres this step's forces belong to (VTK)
         scene_geometry.before_update(self, O, pos)     # periodic cell follows O.cell
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
@@ -752,13 +605,13 @@ class CapbridgeEngine:
     def _sync(self, O):
         """Before a step: set up at the first step, restore after a load, check the
         engine list now and then."""
-        live = _tag_get(O, _tag_key(self.label, "live"))
+        live = persistence.tag_get(O, persistence.tag_key(self.label, "live"))
         if self.model is not None and live == self._live:
             if self.timings["steps"] % 100 == 0:
                 self._check_engines(O)
             return
         self._check_engines(O)
-        stash = _tag_get(O, _tag_key(self.label, "state")) or None
+        stash = persistence.tag_get(O, persistence.tag_key(self.label, "state")) or None
         if stash is not None and live is not None and live.startswith("saved:"):
             self._restore(O, stash)
         elif self.model is None:
@@ -770,8 +623,8 @@ class CapbridgeEngine:
                 f"capbridge engine {self.label!r}: the scene was replaced (O.load / O.reset) "
                 "by one without this engine's saved state, so its bridges do not belong to "
                 "it; call cap.reset() to start it dry on the new scene")
-        self._live = f"live:{uuid.uuid4().hex}"
-        O.tags[_tag_key(self.label, "live")] = self._live
+        self._live = persistence.live_mark()
+        O.tags[persistence.tag_key(self.label, "live")] = self._live
 
     def _engine_state(self):
         return {"ids": self.ids.copy(), "events": dict(self.events),
@@ -779,16 +632,22 @@ class CapbridgeEngine:
                 "coal_logged": int(self._coal_logged), "erased": int(self._erased),
                 "pore_volume": self.pore_volume, "holds_forces": self.holds_forces}
 
-    def _stash(self, O):
-        """Write the parameters and, once started, the state into ``O.tags``."""
-        O.tags[_tag_key(self.label, "params")] = json.dumps(self._params)
-        if self.model is None:
-            return
-        parts = {"engine": self._engine_state(), "bridges": self.model.get_state()}
-        for name, (get, _) in self._parts.items():
-            parts[name] = get()
-        O.tags[_tag_key(self.label, "state")] = state_io.pack(parts)
-        O.tags[_tag_key(self.label, "live")] = f"saved:{uuid.uuid4().hex}"
+    def stash(self, O):
+        """Write the parameters and, once started, the state into ``O.tags`` (called by
+        the ``O.save`` hooks, :mod:`capbridge.yade.persistence`)."""
+        parts = None
+        if self.model is not None:
+            parts = {"engine": self._engine_state(), "bridges": self.model.get_state()}
+            for name, (get, _) in self._parts.items():
+                parts[name] = get()
+        persistence.write_state(O, self.label, self._params, parts)
+
+    _stash = stash
+
+    @property
+    def live_mark(self):
+        """The mark of the live scene in ``O.tags`` (None before the first step)."""
+        return self._live
 
     def _restore(self, O, text):
         """Continue from a saved state (after ``O.load`` / ``O.loadTmp``)."""
@@ -826,7 +685,7 @@ class CapbridgeEngine:
         """The PyRunner must be in O.engines once, after ForceResetter and before
         NewtonIntegrator (else its forces are wiped before they act), with the
         engine's period."""
-        mine, engs = _pyrunners(O, self.label)
+        mine, engs = persistence.pyrunners(O, self.label)
         names = [type(e).__name__ for e in engs]
         if len(mine) != 1:
             raise CapbridgeInputError(
@@ -988,6 +847,15 @@ class CapbridgeEngine:
             out["periodic"] = self._cell.h.tolist() if self._cell is not None else None
         return out
 
+    def snapshot(self):
+        """The bridges of the last step as explicit data (what
+        :func:`capbridge.yade.engine_vtk.bridge_arrays` takes): the bridge model, the
+        step's geometry, the centres its forces were computed at, the wet spheres' ids,
+        the wall bridges and the coalescence report."""
+        return {"model": self.model, "geom": self._last_geom,
+                "pos": getattr(self, "_step_pos", None), "ids": getattr(self, "ids", None),
+                "walls": self.walls, "report": self.coalescence_report}
+
     def write_vtk(self, path, overwrite=False):
         """Write the current bridges (sphere-sphere and wall) to a VTK file (``.vtp`` or
         ``.vtk``) and, beside it, the liquid clusters (``<stem>_clusters<suffix>``) when
@@ -1005,42 +873,4 @@ class CapbridgeEngine:
         return vtk_recorder(self, directory, every=every, prefix=prefix, overwrite=overwrite)
 
 
-# ------------------------------------------------------------------------------------
-# Suction-controlled scenes: YADE's compiled Law2 with capbridge's export
-# ------------------------------------------------------------------------------------
-
-
 set_factory(CapbridgeEngine.from_scene)   # get_engine after O.load in a new process
-
-
-def suction_law2(directory, theta, suction, gamma=0.073, *, export_if_missing=True,
-                 label="capillary", theta2=None, **export_kw):
-    """YADE's ``Law2_ScGeom_CapillaryPhys_Capillarity`` reading capbridge's ``M(r=...)``
-    files for contact angle ``theta`` (suction-controlled bridges, native speed).
-
-    ``suction`` = u_gas - u_liquid [Pa].  The files are looked for in ``directory``
-    (suffix :func:`~capbridge.yade.yade_export.theta_suffix`); if missing they
-    are computed with the exact solver (:func:`~capbridge.yade.yade_export.
-    export_from_solver`, keyword arguments ``export_kw``; minutes for the full ratio
-    set).  YADE reads them when the engine is built, so the working directory only
-    matters here.  Use with ``Ip2_FrictMat_FrictMat_CapillaryPhys``,
-    ``Law2_ScGeom_FrictPhys_CundallStrack(neverErase=True)`` and a detection range
-    covering the rupture distance (``aabbEnlargeFactor`` / ``interactionDetectionFactor``).
-    ``theta2``: angle on the larger grain (the files then hold that pair of angles for
-    every bridge of the scene: right only when all bridges join the two materials).
-    """
-    from capbridge.yade import yade_export as ye
-
-    directory = Path(directory)
-    suffix = ye.theta_suffix(theta, theta2)
-    files = [directory / ye.capillary_file_name(r, suffix) for r in ye.YADE_RATIOS]
-    if not all(f.exists() for f in files):
-        if not export_if_missing:
-            raise FileNotFoundError(f"capillary files {suffix} missing in {directory}")
-        ye.export_from_solver(directory, theta, suffix=suffix, delaunay=False, theta2=theta2,
-                              **export_kw)
-    _, wrapper = _yade()
-    with chdir(directory):
-        return wrapper.Law2_ScGeom_CapillaryPhys_Capillarity(
-            capillaryPressure=float(suction), surfaceTension=float(gamma),
-            suffCapFiles=suffix, label=label)

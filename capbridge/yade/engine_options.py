@@ -42,7 +42,10 @@ from capbridge.dem.liquid_gravity import GRAVITY_MODES, check_gravity
 from capbridge.surrogate.doublet import SI_SURFACE_TENSION_RANGE
 from capbridge.validation import CapbridgeInputError, check_int, check_range, interval_text
 
-__all__ = ["check_options", "load_doublet_table", "check_scene", "check_gravity",
+__all__ = ["check_options", "check_angles", "check_liquid", "check_gravity_mode",
+           "check_formation", "check_pairs_among_ids", "check_speed", "check_coalescence",
+           "check_table_arg", "check_label", "check_bodies", "check_walls_not_ids",
+           "load_doublet_table", "check_scene", "check_gravity",
            "material_angles", "liquid_total", "check_liquid_amount", "check_triplet_table",
            "OPTION_RULES", "LIQUID_AMOUNTS", "TRIPLET_SPLITS", "MAX_VOID_RATIO",
            "WALL_SHAPES"]
@@ -211,7 +214,12 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
 
     Raises :class:`~capbridge.validation.CapbridgeInputError` with one line naming the
     keyword, the value and what is allowed (:data:`OPTION_RULES`).  Pure: no YADE, no
-    file is read (:func:`load_doublet_table` reads the tables).
+    file is read (:func:`load_doublet_table` reads the tables).  The checks are those
+    of the keyword groups (:mod:`capbridge.yade.config`), one function per group
+    (:func:`check_angles`, :func:`check_liquid`, :func:`check_gravity_mode`,
+    :func:`check_bodies`, :func:`check_formation`, :func:`check_speed`,
+    :func:`check_coalescence`, :func:`check_table_arg`, :func:`check_label`), and the
+    checks across groups (``initial_pairs`` and ``walls`` against ``ids``).
 
     Returns
     -------
@@ -220,11 +228,36 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
         lists of int, ``initial_pairs`` as a list of (int, int); ``theta`` as given
         (a number as float); paths and tables as given.
     """
+    out = check_angles(theta, gamma)
+    out.update(check_liquid(bridge_volume=bridge_volume,
+                            bridge_volume_star=bridge_volume_star,
+                            liquid_volume=liquid_volume, water_content=water_content,
+                            saturation=saturation, sample_volume=sample_volume,
+                            liquid_density=liquid_density, conserve_liquid=conserve_liquid,
+                            film_fraction=film_fraction))
+    out.update(check_gravity_mode(gravity_correction))
+    out.update(check_formation(formation_gap=formation_gap, initial_wet_gap=initial_wet_gap,
+                               initial_pairs=initial_pairs))
+    out.update(check_speed(refresh_every=refresh_every, force_tolerance=force_tolerance,
+                           skin=skin, ratio_step=ratio_step))
+    out.update(check_bodies(ids=ids, walls=walls))
+    check_pairs_among_ids(out["initial_pairs"], out["ids"])
+    out.update(check_coalescence(coalescence=coalescence,
+                                 coalescence_every=coalescence_every,
+                                 triplet_forces=triplet_forces, triplet_table=triplet_table,
+                                 triplet_split=triplet_split))
+    out.update(check_table_arg(table))
+    out.update(check_label(label))
+    check_walls_not_ids(out["walls"], out["ids"])
+    return out
+
+
+def check_angles(theta=0.0, gamma=0.073):
+    """``theta`` (a number or {material: angle}) and ``gamma`` [N/m]."""
     from capbridge.solvers.sphere_wall import THETA_WALL_MAX_DEG
     from capbridge.solvers.young_laplace import THETA_MAX_DEG
 
     out = {}
-    # --- contact angles
     if isinstance(theta, dict):
         if not theta:
             raise CapbridgeInputError("theta={} gives no contact angle: give a number, or "
@@ -244,8 +277,14 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
                                                   "{material label or id: angle}")
     out["gamma"] = _number("gamma", gamma, *SI_SURFACE_TENSION_RANGE, units=" N/m",
                            hint=_SLIP)
+    return out
 
-    # --- the liquid: exactly one amount
+
+def check_liquid(*, bridge_volume=None, bridge_volume_star=None, liquid_volume=None,
+                 water_content=None, saturation=None, sample_volume=None,
+                 liquid_density=None, conserve_liquid=None, film_fraction=0.5):
+    """The liquid: exactly one amount, the sample volume, the density, the rule."""
+    out = {}
     amounts = {"bridge_volume": bridge_volume, "bridge_volume_star": bridge_volume_star,
                "liquid_volume": liquid_volume, "water_content": water_content,
                "saturation": saturation}
@@ -269,8 +308,6 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
     out["liquid_density"] = _optional_number(
         "liquid_density", liquid_density, 0.0, np.inf, low_open=True, units=" kg/m^3",
         hint="density difference liquid - gas, 997 for water in air at 20 C")
-    out["gravity_correction"] = _choice("gravity_correction", gravity_correction,
-                                        GRAVITY_MODES)
     out["conserve_liquid"] = _bool("conserve_liquid", conserve_liquid, allow_none=True,
                                    none_text=" (or None: the rule's default)")
     if out["conserve_liquid"] and given[0] not in TOTAL_AMOUNTS:
@@ -279,49 +316,72 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
             f"saturation), not {given[0]}")
     out["film_fraction"] = _number("film_fraction", film_fraction, 0.0, 1.0, low_open=True,
                                    hint="the fraction of each grain's film a new bridge takes")
+    return out
 
-    # --- formation and the near-pair list
+
+def check_gravity_mode(gravity_correction="auto"):
+    """``gravity_correction``: 'auto', 'on' or 'off'."""
+    return {"gravity_correction": _choice("gravity_correction", gravity_correction,
+                                          GRAVITY_MODES)}
+
+
+def check_formation(*, formation_gap=0.0, initial_wet_gap=None, initial_pairs=None):
+    """When bridges form: the formation gap, the first step's gap or pairs."""
+    out = {}
     out["formation_gap"] = _number("formation_gap", formation_gap, 0.0, np.inf, units=" m")
     out["initial_wet_gap"] = _optional_number("initial_wet_gap", initial_wet_gap, 0.0,
                                               np.inf, units=" m")
-    out["skin"] = _optional_number("skin", skin, 0.0, np.inf, low_open=True, units=" m")
-    out["ratio_step"] = _number("ratio_step", ratio_step, 0.0, np.inf, low_open=True)
-    out["ids"] = None if ids is None else _id_list("ids", ids)
     if initial_pairs is None:
         out["initial_pairs"] = None
-    else:
-        if isinstance(initial_pairs, (str, bytes, dict)) or not np.iterable(initial_pairs):
-            raise CapbridgeInputError(f"initial_pairs={initial_pairs!r} is not a list of "
-                                      "pairs of body ids")
-        pairs, seen = [], set()
-        for k, p in enumerate(initial_pairs):
-            if isinstance(p, (str, bytes, dict)) or not np.iterable(p) or len(p) != 2:
-                raise CapbridgeInputError(f"initial_pairs[{k}]={p!r} is not a pair of two "
-                                          "body ids")
-            a, b = (_integer(f"initial_pairs[{k}]", v, 0) for v in p)
-            if a == b:
-                raise CapbridgeInputError(f"initial_pairs[{k}]=({a}, {b}): a bridge joins "
-                                          "two different bodies")
-            if frozenset((a, b)) in seen:
-                raise CapbridgeInputError(f"initial_pairs[{k}]=({a}, {b}): the pair is "
-                                          "given more than once")
-            seen.add(frozenset((a, b)))
-            pairs.append((a, b))
-        if out["ids"] is not None:
-            wet = set(out["ids"])
-            miss = sorted({i for p in pairs for i in p} - wet)
-            if miss:
-                raise CapbridgeInputError(f"initial_pairs: bodies {miss[:10]} are not among "
-                                          "ids (the wet spheres)")
-        out["initial_pairs"] = pairs
+        return out
+    if isinstance(initial_pairs, (str, bytes, dict)) or not np.iterable(initial_pairs):
+        raise CapbridgeInputError(f"initial_pairs={initial_pairs!r} is not a list of "
+                                  "pairs of body ids")
+    pairs, seen = [], set()
+    for k, p in enumerate(initial_pairs):
+        if isinstance(p, (str, bytes, dict)) or not np.iterable(p) or len(p) != 2:
+            raise CapbridgeInputError(f"initial_pairs[{k}]={p!r} is not a pair of two "
+                                      "body ids")
+        a, b = (_integer(f"initial_pairs[{k}]", v, 0) for v in p)
+        if a == b:
+            raise CapbridgeInputError(f"initial_pairs[{k}]=({a}, {b}): a bridge joins "
+                                      "two different bodies")
+        if frozenset((a, b)) in seen:
+            raise CapbridgeInputError(f"initial_pairs[{k}]=({a}, {b}): the pair is "
+                                      "given more than once")
+        seen.add(frozenset((a, b)))
+        pairs.append((a, b))
+    out["initial_pairs"] = pairs
+    return out
 
-    # --- when and how forces are handed to YADE
+
+def check_pairs_among_ids(pairs, ids):
+    """Every body of ``initial_pairs`` is a wet sphere (among ``ids`` when given)."""
+    if pairs is not None and ids is not None:
+        miss = sorted({i for p in pairs for i in p} - set(ids))
+        if miss:
+            raise CapbridgeInputError(f"initial_pairs: bodies {miss[:10]} are not among "
+                                      "ids (the wet spheres)")
+
+
+def check_speed(*, refresh_every=1, force_tolerance=0.0, skin=None, ratio_step=0.01):
+    """What trades accuracy for speed: refresh period, force tolerance, Verlet skin,
+    ratio node spacing."""
+    out = {}
+    out["skin"] = _optional_number("skin", skin, 0.0, np.inf, low_open=True, units=" m")
+    out["ratio_step"] = _number("ratio_step", ratio_step, 0.0, np.inf, low_open=True)
     out["refresh_every"] = _integer("refresh_every", refresh_every, 1)
     out["force_tolerance"] = _number("force_tolerance", force_tolerance, 0.0, 1.0,
                                      hint="a fraction of each bridge force, 0 for exact "
                                           "forces every step")
+    return out
 
-    # --- coalescence and triplets
+
+def check_coalescence(*, coalescence=True, coalescence_every=100, triplet_forces=False,
+                      triplet_table=None, triplet_split="table"):
+    """Coalescence detection and coalesced triplets (the triplet table itself is read
+    by :func:`check_triplet_table` when the engine is made)."""
+    out = {}
     out["coalescence"] = _bool("coalescence", coalescence)
     out["coalescence_every"] = _integer("coalescence_every", coalescence_every, 1)
     # None: the default of scenes saved before triplet_forces was opt-in (on if the
@@ -332,8 +392,11 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
                                   "os.PathLike)")
     out["triplet_table"] = triplet_table
     out["triplet_split"] = _choice("triplet_split", triplet_split, TRIPLET_SPLITS)
+    return out
 
-    # --- the doublet table
+
+def check_table_arg(table=None):
+    """The doublet table argument's type (read by :func:`load_doublet_table`)."""
     if table is not None and not _is_path(table):
         from capbridge.surrogate.doublet import DoubletSurrogate
         import xarray as xr
@@ -342,14 +405,21 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
             raise CapbridgeInputError(
                 f"table: a {type(table).__name__} is not a doublet table: give a path, an "
                 "xarray.Dataset or a fitted DoubletSurrogate (or None: the shipped table)")
-    out["table"] = table
+    return {"table": table}
 
-    # --- the engine's name and the wall partners
+
+def check_label(label="capbridge"):
+    """The engine's name: a Python identifier, not a keyword."""
     if not isinstance(label, str) or not label.isidentifier() or keyword.iskeyword(label):
         raise CapbridgeInputError(
             f"label={label!r} is not allowed: give a str that is a Python identifier and "
             "not a keyword, e.g. 'capbridge' (YADE makes the label a Python name)")
-    out["label"] = label
+    return {"label": label}
+
+
+def check_bodies(*, ids=None, walls=False):
+    """The wet spheres (``ids``) and the wall partners (``walls``)."""
+    out = {"ids": None if ids is None else _id_list("ids", ids)}
     if _is_bool(walls):
         out["walls"] = bool(walls)
     elif walls is None or isinstance(walls, (str, bytes, dict)) or not np.iterable(walls):
@@ -357,12 +427,16 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
                                   "Box and Facet body), False (none) or a list of body ids")
     else:
         out["walls"] = _id_list("walls", walls, allow_empty=True)
-        if out["ids"] is not None:
-            both = sorted(set(out["walls"]) & set(out["ids"]))
-            if both:
-                raise CapbridgeInputError(f"walls: bodies {both[:10]} are also in ids (the "
-                                          "wet spheres)")
     return out
+
+
+def check_walls_not_ids(walls, ids):
+    """No wall partner is a wet sphere."""
+    if ids is not None and not isinstance(walls, bool):
+        both = sorted(set(walls) & set(ids))
+        if both:
+            raise CapbridgeInputError(f"walls: bodies {both[:10]} are also in ids (the "
+                                      "wet spheres)")
 
 
 # ------------------------------------------------------------------------------------

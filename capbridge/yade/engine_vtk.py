@@ -37,17 +37,18 @@ TITLE = "capbridge liquid bridges of a YADE scene (SI: m, m^3, N)"
 _RECORDERS: dict = {}
 
 
-def bridge_arrays(eng):
-    """The engine's current bridges as arrays for :func:`vtk_output.write_bridges`
-    (``ends``, ``volume``, ``force``, ``status``, ``cluster``, ``extra``) and the
-    clusters for :func:`vtk_output.write_clusters` (or None)."""
-    m = eng.model
+def bridge_arrays(model, geom, pos, ids, walls=None, report=None):
+    """The bridges of an engine's last step as arrays for
+    :func:`vtk_output.write_bridges` (``ends``, ``volume``, ``force``, ``status``,
+    ``cluster``, ``extra``) and the clusters for :func:`vtk_output.write_clusters` (or
+    None).  The arguments are :meth:`CapbridgeEngine.snapshot`'s: the bridge model, the
+    last step's geometry (``gap``, ``d``, ``force``), the centres [m] that step's
+    forces were computed at (the grains have moved by one NewtonIntegrator step since:
+    ends, gaps and forces belong together), the wet spheres' body ids, the wall
+    bridges and the coalescence report."""
+    m, g = model, geom
     if m is None:
         raise CapbridgeInputError("the capbridge engine has not run a step yet: nothing to write")
-    g = eng._last_geom
-    # the centres the last step's forces were computed at (the grains have moved by one
-    # NewtonIntegrator step since): ends, gaps and forces belong together
-    pos = getattr(eng, "_step_pos", None)
     nb = m.n_bridges
     if g is None or pos is None or g["d"].shape[0] != nb or pos.shape[0] != m.n:
         raise CapbridgeInputError("the capbridge engine's bridges changed since its last "
@@ -58,7 +59,7 @@ def bridge_arrays(eng):
     force = d * (g["force"] / dist)[:, None]          # on grain bi, towards bj
     status = np.full(nb, int(Status.CONVERGED), np.int32)
     cluster = np.full(nb, -1, np.int32)
-    rep = eng.coalescence_report
+    rep = report
     clusters = None
     if rep is not None and rep.n_clusters and max(int(c.max()) for c in rep.clusters) < nb:
         mid = 0.5 * (ends[:, 0] + ends[:, 1])
@@ -70,10 +71,10 @@ def bridge_arrays(eng):
             ng.append(np.unique(np.concatenate([m.bi[members], m.bj[members]])).size)
         clusters = {"centroid": np.array(cen), "volume": np.asarray(rep.cluster_volumes),
                     "n_grains": np.array(ng)}
-    extra = {"gap": g["gap"], "id1": eng.ids[m.bi], "id2": eng.ids[m.bj],
+    extra = {"gap": g["gap"], "id1": ids[m.bi], "id2": ids[m.bj],
              "wall": np.zeros(nb, np.int32)}
     vol = m.vol
-    wr = eng.walls.records(eng.ids) if eng.walls is not None else None
+    wr = walls.records(ids) if walls is not None else None
     if wr is not None:
         k = wr["volume"].size
         ends = np.concatenate([ends, wr["ends"]])
@@ -93,7 +94,7 @@ def write_vtk(eng, path, overwrite=False):
     """Write the bridges to ``path`` (``.vtp``/``.vtk``) and, when there are liquid
     clusters, ``<stem>_clusters<suffix>`` beside it.  Returns the files written."""
     path = Path(path)
-    b, clusters = bridge_arrays(eng)
+    b, clusters = bridge_arrays(**eng.snapshot())
     out = [vtk_output.write_bridges(path, b["ends"], b["volume"], b["force"], b["status"],
                                     b["cluster"], extra=b["extra"], title=TITLE,
                                     overwrite=overwrite)]
@@ -136,7 +137,7 @@ def _record(label, directory, prefix):
             rec.series[what] = _old_series(Path(directory) / f"{prefix}_{what}.pvd")
         _RECORDERS[(directory, prefix)] = rec
     O = yade.Omega()
-    b, clusters = bridge_arrays(get_engine(label))
+    b, clusters = bridge_arrays(**get_engine(label).snapshot())
     rec.record(int(O.iter), float(O.time), b["ends"], b["volume"], b["force"], b["status"],
                b["cluster"], extra=b["extra"], clusters=clusters, title=TITLE)
 
