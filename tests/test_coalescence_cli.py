@@ -70,9 +70,6 @@ def test_missing_argument_exits_nonzero(capsys):
 
 @pytest.mark.evolver
 def test_energy_option(capsys):
-    from capbridge.solvers.evolver import available
-    if not available():
-        pytest.skip("Surface Evolver not installed")
     rc, out, _ = run(capsys, *BASE, "--theta", "60", "--energy", "--energy-fractions",
                      "1.0,1.2", "--max-refine", "2")
     assert rc == 0

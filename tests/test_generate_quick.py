@@ -23,7 +23,6 @@ import pytest
 import xarray as xr
 
 from capbridge.cli import main
-from capbridge.solvers.evolver import available
 from capbridge.tables.netcdf_io import read_table, write_table
 from capbridge.tables.triplet_gravity import HOLDOUT_CASES, GravityPlan
 from capbridge.tables.triplet import TripletGrid
@@ -171,7 +170,6 @@ def _assert_reused(at_kill, after, ref_ck, ck):
 
 @pytest.mark.slow
 @pytest.mark.evolver
-@pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 def test_generate_triplet_quick_resumes_after_kill_and_is_usable(tmp_path, capsys):
     # killed in the main Evolver phase, once a chunk of it is on disk: the exact phases
     # before it are finished, so the rerun reuses chunks of several phases

@@ -572,11 +572,9 @@ def test_evolver_status_above_tolerance():
 
 @pytest.mark.evolver
 def test_evolver_single_level_is_not_converged():
-    from capbridge.solvers.evolver import available, doublet_force
+    from capbridge.solvers.evolver import doublet_force
     from capbridge.solvers.evolver.minimise import Settings
 
-    if not available():
-        pytest.skip("Surface Evolver not installed")
     F, r = doublet_force(0.1, 0.05, 30.0, settings=Settings(max_refine=0, min_refine=0,
                                                             flag_above_tolerance=True))
     assert r.status == Status.ABOVE_TOLERANCE and np.isinf(r.error_estimate["force_rel"])

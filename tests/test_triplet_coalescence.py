@@ -20,7 +20,6 @@ from capbridge.validation import CapbridgeInputError
 
 PAPER = (0.175, 0.175, 0.075)              # Miot et al. 2021: r = 4 mm, V* = V[ul] / 64
 UNEQUAL = (0.05, 0.2, 0.075)               # bridges 12 (narrow) and 13 (wide) on grain 1
-TABLE = Path(__file__).resolve().parents[1] / "data" / "triplet_coalescence.nc"
 
 
 def _dP_dV(gap, volume, theta, eps=1e-4):
@@ -168,12 +167,12 @@ def test_cli_errors_are_one_line_and_leave_files_alone(tmp_path, capsys):
 
 
 @pytest.fixture(scope="module")
-def table():
-    return read_table(TABLE)
+def table(coalescence_table):
+    return read_table(coalescence_table)
 
 
-def test_shipped_table_provenance_and_size(table):
-    assert TABLE.stat().st_size < 2e6
+def test_shipped_table_provenance_and_size(table, coalescence_table):
+    assert coalescence_table.stat().st_size < 2e6
     assert "triplet_coalescence" in table.attrs["capbridge_command"]
     for name in list(table.data_vars) + list(table.coords):
         assert table[name].attrs.get("units") and table[name].attrs.get("long_name"), name

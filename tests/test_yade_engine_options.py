@@ -23,9 +23,6 @@ from capbridge.validation import CapbridgeInputError, interval_text
 
 SCENES = Path(__file__).parent / "yade_scenes"
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "yade_plugin.md"
-_YADE = yr.find_yade()
-needs_yade = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
 
 #: a valid liquid amount for the cases that test another keyword
 OK = {"theta": 20.0, "water_content": 0.01}
@@ -413,7 +410,6 @@ YADE_CASES = {
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_bad_keywords_stop_a_real_scene_at_construction():
     """In real YADE, each bad keyword (one fresh scene each, one process) raises
     CapbridgeInputError from the constructor, before O.run (O.iter 0, no PyRunner
@@ -434,7 +430,6 @@ def test_bad_keywords_stop_a_real_scene_at_construction():
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_erasing_every_wet_grain_idles_and_resumes():
     """Every wet sphere erased (a wet row touching a wall, forces held): the engine
     goes on without error, applies nothing (the wall's permanent force is the user's
