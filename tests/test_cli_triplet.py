@@ -17,6 +17,7 @@ def _csv(path, rows):
     return str(path)
 
 
+@pytest.mark.slow
 def test_lookup_triplet_matches_the_api_and_permutes(tmp_path, capsys):
     rows = [(0.05, 0.1, 0.15, 0.35, 30.0), (0.1, 0.05, 0.15, 0.35, 30.0),
             (0.15, 0.1, 0.05, 0.35, 30.0)]

@@ -53,6 +53,7 @@ def test_quick_and_shipped_gravity_holdout_cases_lie_inside_their_grids():
     assert GravityPlan.shipped(False).cases == HOLDOUT_CASES
 
 
+@pytest.mark.slow
 def test_gravity_holdout_cases_outside_the_grid_are_skipped_and_counted(caplog):
     from capbridge.tables.triplet import _gravity_holdout_dataset, table_axes
 

@@ -113,6 +113,7 @@ def test_merge_volume_and_forces_are_the_surrogates(sur, doublets):
     assert np.abs(f_dbl - F).max() > 1e-3 * np.abs(F).max()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("conserve,split", [(False, "exact"), (True, "exact"),
                                             (False, "table")])
 def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve, split):
@@ -152,6 +153,7 @@ def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve,
     assert np.all(out["geom"]["force"] > 0)
 
 
+@pytest.mark.slow
 def test_split_share_fallback_keeps_merge_volumes(sur, doublets):
     """split_solver='merge_volumes': the bridges keep exactly their merge-time volumes
     (counted as a share fallback)."""
@@ -168,6 +170,7 @@ def test_split_share_fallback_keeps_merge_volumes(sur, doublets):
     np.testing.assert_array_equal(m.vol, before)
 
 
+@pytest.mark.slow
 def test_split_when_the_separated_state_is_lower(sur, doublets, triplet_table):
     """The energy rule: with a table whose separated state is lower everywhere
     (E_sep = E_coal - 0.5, a constructed field: this tests the rule, not the physics)
@@ -233,6 +236,7 @@ def test_lazy_load_only_at_a_merge_candidate(doublets):
         cl.step(m2, pos, geom, rep)
 
 
+@pytest.mark.slow
 def test_lazy_load_reads_the_table_once(doublets, triplet_table):
     cl = LiquidClusters(GAMMA, table=triplet_table)
     sur = load_surrogate(triplet_table)
@@ -245,6 +249,7 @@ def test_lazy_load_reads_the_table_once(doublets, triplet_table):
     assert cl.loads == 1 and cl.n == 1 and cl.events["merged"] == 1
 
 
+@pytest.mark.slow
 def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
     """A ring of three bridges (the two on grain 2 at 0.55 V*_coal each, the one
     between grains 0 and 1 at 0.1 V*_coal): one cluster holding all three, volume
@@ -292,6 +297,7 @@ def _rotate(v, axis, angle):
     return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
 
 
+@pytest.mark.slow
 def test_merged_triplet_joining_a_funicular_cluster_is_released(sur, doublets):
     """A merged triplet (grains 0, 1, 2) and a fourth grain bridged to grain 2, first
     with its cap apart, then turned about grain 2 (same gap) until its cap meets the

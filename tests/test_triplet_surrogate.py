@@ -378,6 +378,7 @@ def test_linear_law_without_coalescence_table(sur, table):
     assert r["dV"] == pytest.approx(coef[1], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_lower_energy_state(table, sur):
     """Without separated energies the state is 'unknown'; with them, the sign of
     E_coalesced - E_separated beyond the energy error decides."""

@@ -318,6 +318,7 @@ def _merged_triplet(sur, R):
     return 1.6 * Vc * R**3, triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
 
 
+@pytest.mark.slow
 def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
     """A merged triplet (three 1 mm grains, two bridges on grain 2) with gravity: the
     grains get the zero-gravity forces plus the surrogate's gravity response
@@ -483,6 +484,7 @@ def test_doublet_response_from_a_table_that_has_it():
     assert np.abs(f_half - f).max() > 1e-3 * np.linalg.norm(weight)
 
 
+@pytest.mark.slow
 def test_cluster_above_the_bond_range_keeps_its_weight_shared_equally():
     """A cluster at Bo > BOND_MAX (g x 40 on 1 mm grains): no response there, so the
     liquid's weight drho V g is shared equally by the three grains, counted as a
