@@ -110,7 +110,7 @@ def test_lengths_and_fractions_in_range(name, value, allowed):
 # --------------------------------------------------------------------------------------
 
 
-def test_gamma_has_the_plausible_range_of_predict_si():
+def test_gamma_has_the_plausible_range_of_predict_si(doublet_table):
     """``gamma=72`` (mN/m typed as N/m) is refused like ``predict_si`` refuses it: the
     same constant, the same interval."""
     from capbridge.surrogate.doublet import SI_SURFACE_TENSION_RANGE, DoubletSurrogate
@@ -124,8 +124,7 @@ def test_gamma_has_the_plausible_range_of_predict_si():
     for good in (lo, hi, 0.073):
         assert _engine(gamma=good, label="gamma_ok").gamma == good
     # predict_si refuses the same slip, with the same interval
-    sur = DoubletSurrogate().fit(Path(__file__).resolve().parents[1] / "data"
-                                 / "doublet_table.nc")
+    sur = DoubletSurrogate().fit(doublet_table)
     with pytest.raises(CapbridgeInputError, match=re.escape(allowed)):
         sur.predict_si(1e-3, 1e-3, 72.0, 0.0, 1e-12, 20.0)
 
