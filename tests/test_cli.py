@@ -46,6 +46,7 @@ def test_solve_doublet_refuses_bad_input(args, word, capsys):
     assert word in err and "allowed range" in err
 
 
+@pytest.mark.slow
 def test_lookup_doublet_csv(tmp_path, capsys):
     src = tmp_path / "points.csv"
     pd.DataFrame({"d": [0.0, 0.05, 0.1, 2.0], "V": [0.01, 0.02, 0.05, 0.05],
@@ -79,6 +80,7 @@ def test_lookup_refuses_bad_rows(tmp_path, frame, word, capsys):
     assert not (tmp_path / "o.csv").exists()
 
 
+@pytest.mark.slow
 def test_generate_quick_table_then_lookup(tmp_path, capsys):
     table = tmp_path / "quick.nc"
     code, out, _ = run(["generate", "doublet", "--quick", "--output", str(table), "--jobs", "1",
@@ -160,6 +162,7 @@ def test_info_shows_the_doublet_error_model_once(capsys):
     assert out.count("error model") == 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("what", ["doublet", "triplet", "coalescence"])
 def test_worker_timeout_on_every_generate_with_a_scheduler(what, tmp_path, capsys):
     """--worker-timeout on every `generate` that takes --scheduler: with no Dask worker

@@ -15,6 +15,7 @@ def run(capsys, *argv):
 BASE = ("coalescence", "--d12", "0.175", "--d13", "0.175", "--d23", "0.075")
 
 
+@pytest.mark.slow
 def test_paper_triplet_json(capsys):
     rc, out, _ = run(capsys, *BASE, "--theta", "30", "--radius", "4e-3")
     assert rc == 0
@@ -32,6 +33,7 @@ def test_paper_triplet_json(capsys):
     assert "energy" not in d
 
 
+@pytest.mark.slow
 def test_other_layout_and_fractions(capsys):
     rc, out, _ = run(capsys, *BASE, "--theta", "0", "--bridges", "12,13,23")
     assert rc == 0
@@ -70,9 +72,6 @@ def test_missing_argument_exits_nonzero(capsys):
 
 @pytest.mark.evolver
 def test_energy_option(capsys):
-    from capbridge.solvers.evolver import available
-    if not available():
-        pytest.skip("Surface Evolver not installed")
     rc, out, _ = run(capsys, *BASE, "--theta", "60", "--energy", "--energy-fractions",
                      "1.0,1.2", "--max-refine", "2")
     assert rc == 0

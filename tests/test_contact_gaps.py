@@ -111,6 +111,7 @@ def test_unequal_radii_overlap_limit_is_the_pairs_smaller_radius(sur):
         sur.predict_vectors(C, 0.5, 30.0, radii=R)
 
 
+@pytest.mark.slow
 def test_doublet_contact_overlap_is_the_contact_answer(dbl):
     at0 = dbl.predict(0.0, 0.05, 30.0)
     for g in (-1e-12, -1e-3, -CONTACT_OVERLAP_MAX):
@@ -170,6 +171,7 @@ def test_plain_numbers_still_pass():
                                   [0.5, 0.25])
 
 
+@pytest.mark.slow
 def test_cli_lookup_answers_dem_contacts_for_table_and_exact_rows(tmp_path):
     """A DEM overlap in `lookup doublet` is a contact for the table rows and for the
     mixed-angle rows that the exact solver answers."""

@@ -24,18 +24,21 @@ def _gap(ds, ratio, s):
     return float(ds["rupture_gap"].sel(ratio=ratio, theta=THETA, volume=VOLUME)) * (1 - s * s)
 
 
+@pytest.mark.slow
 def test_every_point_converged(table):
     st = table["gravity_status"].values
     assert st.shape == (2, 1, 1, 2)
     assert np.all(st == Status.CONVERGED)
 
 
+@pytest.mark.slow
 def test_share_is_one_half_for_equal_grains(table):
     w = table["weight_share_axial"].sel(ratio=1.0).values
     assert np.all(np.isfinite(w))
     np.testing.assert_allclose(w, 0.5, rtol=0, atol=1e-8)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("s", [0.5, 1.0])
 def test_share_unequal_grains_matches_direct_difference(table, s):
     w = float(table["weight_share_axial"].sel(ratio=2.0, gravity_s=s).squeeze())
@@ -50,6 +53,7 @@ def test_share_unequal_grains_matches_direct_difference(table, s):
     assert abs(w - float(direct)) < 1e-5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ratio", [1.0, 2.0])
 def test_curvature_matches_direct_difference(table, ratio):
     c = float(table["force_gravity_curvature_axial"].sel(ratio=ratio, gravity_s=0.5).squeeze())
@@ -63,6 +67,7 @@ def test_curvature_matches_direct_difference(table, ratio):
     assert abs(c - direct) < 2e-3 * abs(direct)
 
 
+@pytest.mark.slow
 def test_rupture_at_small_bond_approaches_zero_gravity(table):
     d0 = float(table["rupture_gap"].sel(ratio=2.0, theta=THETA, volume=VOLUME))
     rg = table["rupture_gap_gravity"].sel(rupture_bond=0.01, rupture_ratio=2.0).squeeze()
@@ -73,6 +78,7 @@ def test_rupture_at_small_bond_approaches_zero_gravity(table):
     assert abs(below - d0) < 1e-3 * d0 and abs(above - d0) < 1e-3 * d0
 
 
+@pytest.mark.slow
 def test_new_variables_have_units_and_long_names(table):
     new = [n for n in list(table.data_vars) + list(table.coords)
            if n.startswith(("gravity", "rupture_gap_gravity", "rupture_gravity", "rupture_bond",
@@ -94,6 +100,7 @@ def test_without_gravity_the_table_has_none():
     assert "weight_share_axial" not in ds and "no gravity" in ds.attrs["title"]
 
 
+@pytest.mark.slow
 def test_a_line_stops_at_its_first_failure(monkeypatch):
     from capbridge.tables import doublet_gravity as dg
     from capbridge.solvers.young_laplace import rupture_distance
@@ -127,6 +134,7 @@ def _fine_share(gap, volume, theta, ratio, h=0.02):
     return float((r[0]["force1"] - r[1]["force1"]) / (2 * h * volume / (2 * np.pi)))
 
 
+@pytest.mark.slow
 def test_near_rupture_the_share_leaves_zero_one_and_is_right():
     # ratio 2 near rupture: the attraction's own first-order change with b.n outweighs
     # the weight, so "grain 1's share" is negative; that is physics, and the
@@ -143,6 +151,7 @@ def test_near_rupture_the_share_leaves_zero_one_and_is_right():
     assert abs(w - _fine_share(d, V, th, R)) < 1e-4
 
 
+@pytest.mark.slow
 def test_a_point_too_close_to_rupture_is_flagged_and_its_estimate_bounds_its_error():
     from capbridge.tables.doublet_gravity import axial_response
     from capbridge.solvers.young_laplace import rupture_distance
@@ -187,6 +196,7 @@ def _response_reproducibility(eps, h, volume, f0):
             "response_error": 52.0 / 3.0 * eps / abs(f0)}
 
 
+@pytest.mark.slow
 def test_shipped_table_resolves_a_sample_of_its_gravity_nodes():
     """Re-solve nodes of the shipped table's gravity response (CONVERGED and
     ABOVE_TOLERANCE ones) with the committed code: the same w, c, estimate, status,
@@ -254,6 +264,7 @@ def test_transverse_share_is_the_lever_rule_and_matches_evolver():
     assert abs(u[1] - 0.665) < 0.01 and abs(u[1] - 0.5) > 0.1
 
 
+@pytest.mark.slow
 def test_the_axes_checked_before_the_sweep_are_those_of_the_table(table):
     # generate doublet compares an existing file with these before hours of solves; the
     # file written at the end must have exactly them (else it is refused only then)
@@ -264,6 +275,7 @@ def test_the_axes_checked_before_the_sweep_are_those_of_the_table(table):
     assert not _same_grid(table_axes(GRID, None), table_grid(table))
 
 
+@pytest.mark.slow
 def test_shipped_table_transverse_gravity_outside_its_measured_range_is_approximate():
     """Surface Evolver (benchmarks/gravity_doublet_validity.json): equal grains at
     0.8 d*_rupt (V* 0.1, theta 60) are off by 4.5e-3 F0 with gravity across at Bo 1 and

@@ -14,14 +14,12 @@ import numpy as np
 import pytest
 
 from capbridge.dimensionless import cap_area, triplet_centres
-from capbridge.solvers.evolver import (Settings, available, doublet_force, doublet_problem,
+from capbridge.solvers.evolver import (Settings, doublet_force, doublet_problem,
                                          make_problem, minimise, minimise_bridge)
 from capbridge.solvers.evolver import geometry, runner
 from capbridge.solvers.evolver.datafile import mesh_problem, write_datafile
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
-
-needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 
 
 def _exact(gap, volume, theta):
@@ -99,7 +97,6 @@ def test_bad_input_is_rejected():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_runner_timeout_kills_process_group(tmp_path):
     write_datafile(mesh_problem(doublet_problem(0.1, 0.05, 30.0)), tmp_path / "a.fe")
     out = runner.run_evolver("a.fe", "g 100000000;\nquit\n", str(tmp_path), timeout=1.0)
@@ -129,7 +126,6 @@ def doublet_theta0():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_doublet_theta0_checks(doublet_theta0):
     r = doublet_theta0
     assert r.status in HAS_RESULT, r.reason
@@ -157,7 +153,6 @@ def test_doublet_theta0_checks(doublet_theta0):
 
 
 @pytest.mark.evolver
-@needs_evolver
 @pytest.mark.parametrize("theta", [30.0, 60.0])
 def test_doublet_against_exact(theta):
     F, r = doublet_force(0.1, 0.05, theta, max_refine=3)
@@ -170,7 +165,6 @@ def test_doublet_against_exact(theta):
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_unequal_radii_doublet():
     F, r = doublet_force(0.1, 0.05, 30.0, ratio=2.0, max_refine=3)
     assert r.status in HAS_RESULT, r.reason
@@ -182,7 +176,6 @@ def test_unequal_radii_doublet():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_doublet_with_gravity_carries_the_weight():
     bo = 2.14
     pb = doublet_problem(0.1, 0.05, 30.0, bond=bo, gravity_dir=(0, 0, -1))
@@ -197,7 +190,6 @@ def test_doublet_with_gravity_carries_the_weight():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_paper_triplet_coalesced_body():
     """The paper's triplet (d12 = d13 = 0.175, d23 = 0.075), V* = 16/64, theta = 0: one
     body wetting three grains converges without the surface cutting into the grains,
@@ -216,7 +208,6 @@ def test_paper_triplet_coalesced_body():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_two_bridges_on_a_shared_grain_sum_to_zero():
     C = triplet_centres(0.175, 0.175, 0.075)
     r = minimise_bridge(C, 1.0, 30.0, [0.05, 0.05], topology="bridges",
@@ -226,7 +217,6 @@ def test_two_bridges_on_a_shared_grain_sum_to_zero():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_pinch_off_is_flagged_not_reported():
     # far beyond the rupture distance of a small bridge: the neck collapses
     F, r = doublet_force(0.35, 0.008, 0.0, max_refine=2)
@@ -236,7 +226,6 @@ def test_pinch_off_is_flagged_not_reported():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_timeout_is_flagged():
     F, r = doublet_force(0.1, 0.05, 30.0, max_refine=3, level_timeout=1e-3, total_timeout=2)
     assert r.status == Status.NOT_CONVERGED
@@ -250,7 +239,6 @@ def test_timeout_is_flagged():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_only_gravity_free_level_passed_is_flagged_not_raised(monkeypatch):
     """With gravity, level 0 is relaxed without it; when every later level fails the
     result assembly used to raise IndexError (no level with the problem's Bond number)."""
@@ -273,7 +261,6 @@ def test_only_gravity_free_level_passed_is_flagged_not_raised(monkeypatch):
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_driver_exception_is_flagged(monkeypatch):
     mod = importlib.import_module("capbridge.solvers.evolver.minimise")
 
@@ -286,7 +273,6 @@ def test_driver_exception_is_flagged(monkeypatch):
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_single_vw_component_matches_full_and_masks_the_rest():
     u = np.array([1.0, 0.0, 0.0])
     F1, r1 = doublet_force(0.1, 0.05, 30.0, max_refine=2, vw_components=[(0, u)], workers=1)
@@ -299,7 +285,6 @@ def test_single_vw_component_matches_full_and_masks_the_rest():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_theta0_virtual_work_fine_mesh_settings_at_level4():
     """theta = 0 on a fine mesh: a displacement of 0.005 (the default 0.01 capped at
     gap/20) can push the meniscus out of its basin (indefinite Hessian, the surface folds
@@ -316,7 +301,6 @@ def test_theta0_virtual_work_fine_mesh_settings_at_level4():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_paper_protocol_forward_difference():
     from capbridge.solvers.evolver.protocols import forward_difference_force
 
@@ -336,7 +320,6 @@ def test_paper_protocol_forward_difference():
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_evolver_dies_with_a_killed_python_parent(tmp_path):
     """Evolver runs in its own session; killing the Python process that started it used
     to leave it running (orphans of killed sweeps kept burning CPU for hours)."""
@@ -379,7 +362,6 @@ def _is_zombie(pid):
 
 
 @pytest.mark.evolver
-@needs_evolver
 def test_caps_meeting_on_the_coarse_mesh_is_checked_on_a_finer_one():
     """Three separate bridges at 0.59 of their exact coalescence volume (stress point 18):
     the level-0 rings made caps meet and the point used to be flagged COALESCED.  Above

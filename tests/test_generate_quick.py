@@ -24,7 +24,6 @@ import pytest
 import xarray as xr
 
 from capbridge.cli import main
-from capbridge.solvers.evolver import available
 from capbridge.tables.netcdf_io import read_table, write_table
 from capbridge.tables.triplet_gravity import HOLDOUT_CASES, GravityPlan
 from capbridge.tables.triplet import TripletGrid
@@ -55,6 +54,7 @@ def test_quick_and_shipped_gravity_holdout_cases_lie_inside_their_grids():
     assert GravityPlan.shipped(False).cases == HOLDOUT_CASES
 
 
+@pytest.mark.slow
 def test_gravity_holdout_cases_outside_the_grid_are_skipped_and_counted(caplog):
     from capbridge.tables.triplet import _gravity_holdout_dataset, table_axes
 
@@ -175,7 +175,6 @@ def _assert_reused(at_kill, after, ref_ck, ck):
 
 @pytest.mark.slow
 @pytest.mark.evolver
-@pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 def test_generate_triplet_quick_resumes_after_kill_and_is_usable(tmp_path, capsys):
     """The uninterrupted run first (the reference); then the same command in a
     checkpoint directory holding what a run killed in its gravity phase leaves on disk

@@ -44,6 +44,7 @@ def _csv(path, columns, rows):
     return str(path)
 
 
+@pytest.mark.slow
 def test_lookup_doublet_bond_gives_the_force_vectors(tmp_path, doublet_file, capsys):
     rows = [(0.05, 0.05, 30.0), (0.2, 0.02, 45.0), (0.0, 0.1, 0.0)]
     out = tmp_path / "o.csv"
@@ -70,6 +71,7 @@ def test_lookup_doublet_bond_gives_the_force_vectors(tmp_path, doublet_file, cap
     np.testing.assert_allclose(df0.F, df.F, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_lookup_doublet_out_of_range_rows_are_reported(tmp_path, doublet_file, capsys):
     sur = DoubletSurrogate().fit(doublet_file)
     d0 = float(sur.predict(0.0, DV, DTHETA)["rupture_gap"])
@@ -82,6 +84,7 @@ def test_lookup_doublet_out_of_range_rows_are_reported(tmp_path, doublet_file, c
     assert "beyond the rupture distance without gravity" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_lookup_triplet_bond_gives_the_force_vectors(tmp_path, triplet_file):
     rows = [(0.05, 0.12, 0.15, 0.35, 30.0), (0.1, 0.1, 0.1, 0.4, 40.0)]
     out = tmp_path / "o.csv"
@@ -216,6 +219,7 @@ def test_solve_triplet_passes_gravity_to_evolver(monkeypatch, capsys):
     assert "bond" not in seen and "gravity_dir" not in seen
 
 
+@pytest.mark.slow
 def test_info_prints_the_gravity_content(capsys, doublet_file, triplet_file):
     assert main(["info", "--table", triplet_file]) == 0
     out = capsys.readouterr().out

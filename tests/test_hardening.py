@@ -239,6 +239,7 @@ def test_workers_die_with_their_parent(tmp_path):
     assert not left, f"orphaned workers {left}"
 
 
+@pytest.mark.slow
 def test_dask_without_workers_fails_after_the_timeout(tmp_path):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None) as c, \
@@ -294,6 +295,7 @@ def test_lost_dask_scheduler_keeps_finished_chunks(tmp_path, monkeypatch):
     np.testing.assert_array_equal(again["F"], x * x)
 
 
+@pytest.mark.slow
 def test_scheduler_that_does_not_answer(tmp_path):
     pytest.importorskip("distributed")
     t0 = time.monotonic()
@@ -472,6 +474,7 @@ def test_coalescence_radius(radius, capsys):
     assert out == ""
 
 
+@pytest.mark.slow
 def test_clip_keeps_the_state(table, tmp_path, capsys):
     sur_clip = DoubletSurrogate(out_of_range="clip").fit(table)
     vmin = float(sur_clip.volume_[0])
@@ -572,11 +575,9 @@ def test_evolver_status_above_tolerance():
 
 @pytest.mark.evolver
 def test_evolver_single_level_is_not_converged():
-    from capbridge.solvers.evolver import available, doublet_force
+    from capbridge.solvers.evolver import doublet_force
     from capbridge.solvers.evolver.minimise import Settings
 
-    if not available():
-        pytest.skip("Surface Evolver not installed")
     F, r = doublet_force(0.1, 0.05, 30.0, settings=Settings(max_refine=0, min_refine=0,
                                                             flag_above_tolerance=True))
     assert r.status == Status.ABOVE_TOLERANCE and np.isinf(r.error_estimate["force_rel"])
@@ -597,6 +598,7 @@ def test_predict_si_catches_unit_slips(table, kw, word):
         sur.predict_si(**(args | kw))
 
 
+@pytest.mark.slow
 def test_lookup_theta2_by_the_exact_solver(table, tmp_path, capsys):
     src = tmp_path / "p.csv"
     src.write_text("d,V,theta,theta2,tag\n0.05,0.01,20,20,a\n0.05,0.01,20,40,b\n"

@@ -5,12 +5,8 @@ import pandas as pd
 import pytest
 
 from capbridge.cli import main
-from capbridge.solvers.evolver import available
-
-needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 
 
-@needs_evolver
 @pytest.mark.evolver
 @pytest.mark.slow
 def test_reproduce_quick_writes_everything(tmp_path, capsys):

@@ -81,6 +81,7 @@ def test_contact_force_tends_to_sum_of_cosines(theta_s, theta_w):
     np.testing.assert_allclose(err[:-1] / err[1:], 10**0.25, rtol=0.05)
 
 
+@pytest.mark.slow
 def test_wall_at_90_degrees_is_the_mirror_plane_of_a_symmetric_doublet():
     """With theta_w = 90 deg the wall is the mid-plane of a symmetric doublet: the
     bridge (d*, V*) on the wall is half the doublet (2 d*, 2 V*) between equal spheres,
@@ -165,6 +166,7 @@ def test_converged_under_tighter_settings(cases):
 # ------------------------------------------------------------------ rupture
 
 
+@pytest.mark.slow
 def test_rupture_against_lian_and_the_doublet():
     """Lian et al. (1993), (1 + theta/2) V*^(1/3) (equal spheres; its error against the
     exact equal-sphere rupture is -4.9 % to +2.8 % for V* 1e-3 - 0.1): for the wall at
@@ -193,6 +195,7 @@ def test_rupture_against_lian_and_the_doublet():
         np.testing.assert_allclose(chain[2], w, rtol=0.02)
 
 
+@pytest.mark.slow
 def test_every_point_converges_or_ruptures_correctly():
     """Random (V*, theta_s, theta_w, gap up to 1.2 d*_rupt): CONVERGED below rupture,
     RUPTURED (force 0) beyond, never anything else; at 0.999 / 1.001 d*_rupt too."""
@@ -226,6 +229,7 @@ def test_bad_input_raises_naming_the_value(kwargs, word):
 # ------------------------------------------------------------------ table slice
 
 
+@pytest.mark.slow
 def test_table_slice():
     """The (volume, s) slice: s = sqrt(1 - d*/d*_rupt) as in the doublet table, s = 0 is
     the rupture state, every point converged, CF units/long_name on every variable.
@@ -258,6 +262,7 @@ def test_table_slice():
         sphere_wall_table([0.0, 30.0], 60.0, vols)
 
 
+@pytest.mark.slow
 def test_table_slice_near_rupture_branch_jump_resolved():
     """At (20, 40) deg and V* ~ 0.06 the direct near-rupture solve jumped branches
     (F* below F*_rupt at s ~ 0.1); the slice re-solves such points by the family walk,

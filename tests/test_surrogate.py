@@ -28,6 +28,7 @@ def test_table_is_self_describing(table):
     assert (table["status"].values == Status.CONVERGED).all()
 
 
+@pytest.mark.slow
 def test_table_points_resolve_exactly(table):
     """A random sample of stored points, re-solved now, agrees to 1e-7 relative."""
     rng = np.random.default_rng(7)
@@ -42,6 +43,7 @@ def test_table_points_resolve_exactly(table):
     np.testing.assert_allclose(r["pressure"], pts["pressure"].values[inner], rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_surrogate_matches_exact_away_from_rupture(surrogate):
     """Median <= 0.05 %, max <= 0.5 % for d* <= 0.96 d*_rupt (the stated band)."""
     rng = np.random.default_rng(3)
@@ -95,12 +97,14 @@ def test_bad_input_is_refused(surrogate, kw, word):
         surrogate.predict(**kw)
 
 
+@pytest.mark.slow
 def test_clip_fallback_is_flagged():
     sur = DoubletSurrogate(out_of_range="clip").fit(DEFAULT_TABLE)
     r = sur.predict(0.01, 5.0, 10.0)
     assert r["status"] == Status.EXTRAPOLATED and np.isfinite(r["force"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ratio", [3.5, 7.0])
 def test_between_tabulated_ratios(surrogate, ratio):
     """Spline across ratio slices: median <= 0.05 %, max <= 1 % (d* <= 0.96 d*_rupt)."""
@@ -132,6 +136,7 @@ def test_si_api_matches_dimensionless(surrogate):
         surrogate.predict_si(-1e-3, 1e-3, gamma, d, vol, 30.0)
 
 
+@pytest.mark.slow
 def test_table_rupture_rows_resolve_exactly(table):
     """The stored rupture distances (s = 0 rows) re-solved now agree to 1e-6."""
     from capbridge.solvers.young_laplace import rupture_distance

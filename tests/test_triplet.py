@@ -45,6 +45,7 @@ def test_uncoalesced_forces_are_the_doublets():
     assert abs(f[(1, 2)]) < 1e-12
 
 
+@pytest.mark.slow
 def test_caps_criterion_symmetric_triplet_beta_equals_alpha():
     r = find_coalescence(PAPER, 0.0)
     assert r.status == "coalescence" and r.criterion == "caps"
@@ -60,11 +61,13 @@ def test_caps_criterion_symmetric_triplet_beta_equals_alpha():
     assert r.opening_angles["grain 1"] == pytest.approx(2 * ALPHA)
 
 
+@pytest.mark.slow
 def test_vcoal_increases_with_theta():
     V = [find_coalescence(PAPER, t).V_coal for t in (0.0, 20.0, 40.0, 60.0, 80.0)]
     assert np.all(np.diff(V) > 0)
 
 
+@pytest.mark.slow
 def test_paper_vcoal_theta0_measured_value():
     """Paper: 14-14.5 ul (r = 4 mm, theta = 0, no gravity, beta read from a mesh).
 
@@ -81,6 +84,7 @@ def test_paper_vcoal_theta0_measured_value():
     assert float(b) == pytest.approx(ALPHA, abs=1e-6)
 
 
+@pytest.mark.slow
 def test_vcoal_on_the_paper_line_from_30_degrees():
     """V_coal = 14.5 + theta/90 * 18 ul holds within 0.15 ul for theta >= 30 deg (at 15
     deg ours is 0.29 ul below, at 0 deg 1.36 ul below: steeper than linear there)."""
@@ -90,6 +94,7 @@ def test_vcoal_on_the_paper_line_from_30_degrees():
         assert v == pytest.approx(14.5 + t / 90 * 18, abs=0.15)
 
 
+@pytest.mark.slow
 def test_unequal_fractions_still_meet_at_the_caps():
     r = find_coalescence(PAPER, 30.0, fractions=[0.7, 0.3])
     assert r.criterion == "caps"
@@ -98,6 +103,7 @@ def test_unequal_fractions_still_meet_at_the_caps():
     assert r.beta["12"]["grain 1"] > r.beta["13"]["grain 1"]
 
 
+@pytest.mark.slow
 def test_three_bridges_layout():
     r = find_coalescence(PAPER, 0.0, bridges="12,13,23")
     assert set(r.opening_angles) == {"grain 1", "grain 2", "grain 3"}

@@ -9,12 +9,9 @@ check) with the budget exact to 1e-12, >= 4-grain clusters keep their doublet fo
 and are counted, the table is read only at the first merge candidate.
 
 The triplet table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default the shipped
-``data/triplet_table.nc``); the tests that need it are skipped without it.
+``data/triplet_table.nc``; the ``triplet_table`` fixture of conftest.py).
 """
 from __future__ import annotations
-
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,19 +22,17 @@ from capbridge.dem.triplet_clusters import (LiquidClusters, load_surrogate,
                                                     triangle_centres)
 from capbridge.dimensionless import force_scale
 from capbridge.status import Status
-from capbridge.surrogate.triplet import TripletSurrogate, default_table
+from capbridge.surrogate.triplet import TripletSurrogate
 from capbridge.validation import CapbridgeInputError
 
-TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
-needs_table = pytest.mark.skipif(not TABLE.exists(), reason=f"no triplet table at {TABLE}")
 R = 1e-3
 GAMMA = 0.073
 
 
 @pytest.fixture(scope="module")
-def sur():
+def sur(triplet_table):
     """The surrogate as the engine fits it (with the dense V_coal table beside it)."""
-    return load_surrogate(TABLE)
+    return load_surrogate(triplet_table)
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +90,6 @@ def _merged(sur, doublets, theta=0.0, conserve=False, v=1.6, split="table"):
     return m, cl, pos, V, geom, out
 
 
-@needs_table
 def test_merge_volume_and_forces_are_the_surrogates(sur, doublets):
     """Merge: one cluster of exactly the two bridges' volume; the grains get the
     surrogate's force vectors at the three centres (F* 2 pi gamma r) within 1e-12,
@@ -119,7 +113,7 @@ def test_merge_volume_and_forces_are_the_surrogates(sur, doublets):
     assert np.abs(f_dbl - F).max() > 1e-3 * np.abs(F).max()
 
 
-@needs_table
+@pytest.mark.slow
 @pytest.mark.parametrize("conserve,split", [(False, "exact"), (True, "exact"),
                                             (False, "table")])
 def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve, split):
@@ -159,7 +153,7 @@ def test_split_out_of_table_equal_pressure_budget_exact(sur, doublets, conserve,
     assert np.all(out["geom"]["force"] > 0)
 
 
-@needs_table
+@pytest.mark.slow
 def test_split_share_fallback_keeps_merge_volumes(sur, doublets):
     """split_solver='merge_volumes': the bridges keep exactly their merge-time volumes
     (counted as a share fallback)."""
@@ -176,14 +170,14 @@ def test_split_share_fallback_keeps_merge_volumes(sur, doublets):
     np.testing.assert_array_equal(m.vol, before)
 
 
-@needs_table
-def test_split_when_the_separated_state_is_lower(sur, doublets):
+@pytest.mark.slow
+def test_split_when_the_separated_state_is_lower(sur, doublets, triplet_table):
     """The energy rule: with a table whose separated state is lower everywhere
     (E_sep = E_coal - 0.5, a constructed field: this tests the rule, not the physics)
     a merged cluster splits (split_energy) and a new one is refused (merge_refused)."""
     from capbridge.tables.netcdf_io import read_table
 
-    ds = read_table(TABLE)
+    ds = read_table(triplet_table)
     # an edited copy (no checksum), without a separated energy of its own
     ds = ds.drop_vars("energy_separated", errors="ignore")
     ds.attrs.pop("data_sha256", None)
@@ -242,10 +236,10 @@ def test_lazy_load_only_at_a_merge_candidate(doublets):
         cl.step(m2, pos, geom, rep)
 
 
-@needs_table
-def test_lazy_load_reads_the_table_once(doublets):
-    cl = LiquidClusters(GAMMA, table=TABLE)
-    sur = load_surrogate(TABLE)
+@pytest.mark.slow
+def test_lazy_load_reads_the_table_once(doublets, triplet_table):
+    cl = LiquidClusters(GAMMA, table=triplet_table)
+    sur = load_surrogate(triplet_table)
     g, V = _geometry(sur)
     pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
     m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
@@ -255,7 +249,7 @@ def test_lazy_load_reads_the_table_once(doublets):
     assert cl.loads == 1 and cl.n == 1 and cl.events["merged"] == 1
 
 
-@needs_table
+@pytest.mark.slow
 def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
     """A ring of three bridges (the two on grain 2 at 0.55 V*_coal each, the one
     between grains 0 and 1 at 0.1 V*_coal): one cluster holding all three, volume
@@ -277,7 +271,6 @@ def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
     assert cl2.events == cl.events
 
 
-@needs_table
 def test_unequal_radii_are_approximate_and_counted(sur):
     """Radii 1 and 1.1 mm: merged with the surrogate's unequal-radii approximation
     (status approximate), counted; forces those of predict_vectors(radii=...)."""
@@ -304,7 +297,7 @@ def _rotate(v, axis, angle):
     return v * np.cos(angle) + np.cross(k, v) * np.sin(angle) + k * (k @ v) * (1 - np.cos(angle))
 
 
-@needs_table
+@pytest.mark.slow
 def test_merged_triplet_joining_a_funicular_cluster_is_released(sur, doublets):
     """A merged triplet (grains 0, 1, 2) and a fourth grain bridged to grain 2, first
     with its cap apart, then turned about grain 2 (same gap) until its cap meets the

@@ -20,7 +20,6 @@ from capbridge.validation import CapbridgeInputError
 
 PAPER = (0.175, 0.175, 0.075)              # Miot et al. 2021: r = 4 mm, V* = V[ul] / 64
 UNEQUAL = (0.05, 0.2, 0.075)               # bridges 12 (narrow) and 13 (wide) on grain 1
-TABLE = Path(__file__).resolve().parents[1] / "data" / "triplet_coalescence.nc"
 
 
 def _dP_dV(gap, volume, theta, eps=1e-4):
@@ -34,6 +33,7 @@ def _dP_dV(gap, volume, theta, eps=1e-4):
 # --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_symmetric_pair_shares_equally_and_matches_uncoalesced_state():
     V, theta = 0.2, 30.0
     s = separated_state(*PAPER, V, theta)
@@ -48,6 +48,7 @@ def test_symmetric_pair_shares_equally_and_matches_uncoalesced_state():
     assert all(s["pressure_stable"].values())
 
 
+@pytest.mark.slow
 def test_unequal_gaps_share_the_liquid_at_one_pressure():
     V, theta = 0.2, 20.0
     s = separated_state(*UNEQUAL, V, theta)
@@ -75,6 +76,7 @@ def test_suction_branch_volume_increases_with_pressure(theta):
     assert np.all(np.diff(r["volume"][ok]) > 0)
 
 
+@pytest.mark.slow
 def test_widest_bridge_drains_past_its_pressure_fold_and_stays_stable():
     theta = 20.0
     s = separated_state(*UNEQUAL, 0.141, theta)
@@ -88,6 +90,7 @@ def test_widest_bridge_drains_past_its_pressure_fold_and_stays_stable():
     assert separated_state(*UNEQUAL, 0.136, theta)["status"] == Status.RUPTURED
 
 
+@pytest.mark.slow
 def test_equal_gaps_below_the_pressure_fold_cannot_share():
     # V/2 = 0.015 is between the rupture volume (0.0052) and the pressure fold (0.023)
     # of a bridge at d* = 0.175: each bridge exists at fixed volume, but exchanging
@@ -99,6 +102,7 @@ def test_equal_gaps_below_the_pressure_fold_cannot_share():
     assert separated_state(*PAPER, V, 0.0)["status"] == Status.RUPTURED
 
 
+@pytest.mark.slow
 def test_lowest_separated_energy_picks_the_lowest_candidate():
     r = lowest_separated_energy(*PAPER, 0.2, 0.0)
     c = r["candidates"]
@@ -128,6 +132,7 @@ def test_bad_input_is_one_clear_error():
 # --------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_chunk_solver_gives_the_papers_coalescence_volume():
     r = coalescence_chunk(np.array([0.175]), np.array([0.175]), np.array([0.075]),
                           np.array([0.0]), configuration="pair")
@@ -136,6 +141,7 @@ def test_chunk_solver_gives_the_papers_coalescence_volume():
     assert r["criterion"][0] == 0                                 # caps (beta = alpha)
 
 
+@pytest.mark.slow
 def test_quick_table_is_built_and_never_overwritten(tmp_path):
     grid = CoalescenceGrid(gaps=(0.1, 0.2), theta=(60.0, 80.0), n_heldout=1,
                            configurations=("pair",))
@@ -168,12 +174,12 @@ def test_cli_errors_are_one_line_and_leave_files_alone(tmp_path, capsys):
 
 
 @pytest.fixture(scope="module")
-def table():
-    return read_table(TABLE)
+def table(coalescence_table):
+    return read_table(coalescence_table)
 
 
-def test_shipped_table_provenance_and_size(table):
-    assert TABLE.stat().st_size < 2e6
+def test_shipped_table_provenance_and_size(table, coalescence_table):
+    assert coalescence_table.stat().st_size < 2e6
     assert "triplet_coalescence" in table.attrs["capbridge_command"]
     for name in list(table.data_vars) + list(table.coords):
         assert table[name].attrs.get("units") and table[name].attrs.get("long_name"), name
@@ -250,6 +256,7 @@ def test_papers_triplet_interpolated_within_the_stored_error(table):
     assert abs(e[0]) <= err + 5e-4            # 13.14 is rounded to 5e-3 ul (4e-4 rel)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("c, idx", [("pair", (1, 2, 0, 4)), ("pair", (0, 3, 4, 0)),
                                     ("pair", (4, 2, 2, 3)), ("ring", (1, 3, 2, 4))])
 def test_shipped_points_resolve_with_find_coalescence(table, c, idx):

@@ -5,12 +5,10 @@ Small meshes (refinement level 2); each Evolver test takes a few seconds on two 
 import numpy as np
 import pytest
 
-from capbridge.solvers.evolver import available
 from capbridge.solvers.triplet import triplet_geometry, uncoalesced_state
 from capbridge.solvers.triplet_evolver import (coalescence_from_cap_gaps,
                                                  energy_convention_check, evolver_triplet)
 
-needs_evolver = pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 PAPER = triplet_geometry(0.175, 0.175, 0.075)
 ALPHA = PAPER.angle_at(0, 1, 2) / 2
 
@@ -27,7 +25,6 @@ def test_cap_gap_extrapolation_and_interpolation():
     assert np.isnan(coalescence_from_cap_gaps([1.0], [1.0], 60.0)["V_coal"])
 
 
-@needs_evolver
 @pytest.mark.evolver
 def test_coalesced_trimer_forces_balance_and_decompose():
     r = evolver_triplet(16 / 64, PAPER, 0.0, "coalesced", max_refine=2)
@@ -47,7 +44,6 @@ def test_coalesced_trimer_forces_balance_and_decompose():
     assert r["energy_extrapolated"] < float(unc["energy"])
 
 
-@needs_evolver
 @pytest.mark.evolver
 def test_separate_bridges_cap_gap_matches_exact_at_theta60():
     V = 24 / 64
@@ -60,7 +56,6 @@ def test_separate_bridges_cap_gap_matches_exact_at_theta60():
     assert r["F_top_vertical"] == pytest.approx(-ex["forces"][0, 2], rel=1e-2)
 
 
-@needs_evolver
 @pytest.mark.evolver
 def test_energy_convention_agrees_with_exact_doublet():
     c = energy_convention_check(gap=0.175, volume=0.1, theta=60.0, max_refine=2)

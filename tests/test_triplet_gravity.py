@@ -2,22 +2,15 @@
 frame changes of the relabelled cube, and the shipped response (sum rule, symmetry,
 re-solve of a shipped point by Surface Evolver with the recorded settings)."""
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from capbridge.solvers.evolver import available
 from capbridge.solvers.triplet import triplet_geometry
 from capbridge.tables.triplet_gravity import (_RUNS, GravityPlan, gravity_chunk,
                                                  gravity_tensors, rotate_gravity_tensor)
 from capbridge.tables.triplet import TripletGrid, _expand_to_cube
 from capbridge.status import Status
-
-TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
-                            Path(__file__).resolve().parent.parent / "data" / "triplet_table.nc"))
-
 
 def _mirror_y_model(rng):
     """F(b) = F0 + G b + C b^2/2 + a cubic term, with the y -> -y mirror symmetry of a
@@ -96,11 +89,9 @@ def test_cube_expansion_relabels_and_rotates_the_response():
 
 
 @pytest.fixture(scope="module")
-def table():
+def table(triplet_table):
     xr = pytest.importorskip("xarray")
-    if not TABLE.exists():
-        pytest.skip("no triplet table")
-    ds = xr.open_dataset(TABLE)
+    ds = xr.open_dataset(triplet_table)
     if "force_gravity_gradient" not in ds:
         pytest.skip("the triplet table carries no gravity response")
     return ds
@@ -131,7 +122,6 @@ def test_shipped_response_carries_the_weight_and_respects_the_mirror(table):
 
 
 @pytest.mark.evolver
-@pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 def test_shipped_response_resolved_by_evolver(table):
     """One canonical point's response solved again with the recorded settings."""
     s = json.loads(table.attrs["gravity_settings"])

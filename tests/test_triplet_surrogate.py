@@ -1,9 +1,9 @@
 """TripletSurrogate: symmetry, vectors, nodes, held-out points, statuses, bad input.
 
-The table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default: the shipped ``data/triplet_table.nc``).
+The table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default: the shipped ``data/triplet_table.nc``;
+the ``triplet_table`` fixture of conftest.py).
 """
 import itertools
-import os
 from pathlib import Path
 
 import numpy as np
@@ -14,18 +14,15 @@ from capbridge.tables.netcdf_io import read_table
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.triplet import (LOWER_ENERGY_STATES, PAIR_NAMES, PAIRS,
                                          TripletSurrogate, _Descending, _Grid,
-                                         default_table, holdout_errors)
+                                         holdout_errors)
 from capbridge.validation import CapbridgeInputError
-
-TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
-pytestmark = pytest.mark.skipif(not TABLE.exists(), reason=f"no triplet table at {TABLE}")
 
 ANSWERED = (Status.CONVERGED, Status.ABOVE_TOLERANCE)
 
 
 @pytest.fixture(scope="module")
-def table():
-    return read_table(TABLE)
+def table(triplet_table):
+    return read_table(triplet_table)
 
 
 @pytest.fixture(scope="module")
@@ -381,6 +378,7 @@ def test_linear_law_without_coalescence_table(sur, table):
     assert r["dV"] == pytest.approx(coef[1], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_lower_energy_state(table, sur):
     """Without separated energies the state is 'unknown'; with them, the sign of
     E_coalesced - E_separated beyond the energy error decides."""
@@ -410,7 +408,7 @@ def test_summary_for_info(sur):
     assert d["holdout_error"] is None or d["holdout_error"]["n"] >= 1
 
 
-def test_coalescence_volume_against_exact(table):
+def test_coalescence_volume_against_exact(table, coalescence_table):
     """V*_coal against exact coalescence volumes (benchmarks/triplet_vcoal_exact.json,
     find_coalescence at random geometries): within 3 % from the triplet table alone
     (measured 2.6 % max on the shipped grid), within 0.3 % with the coalescence table
@@ -423,8 +421,7 @@ def test_coalescence_volume_against_exact(table):
     g = np.array([p["gaps"] for p in pts]).T
     t = np.array([p["theta"] for p in pts])
     V = np.array([p["V_coal"] for p in pts])
-    coal = root / "data" / "triplet_coalescence.nc"
-    for ct, tol in ((None, 3e-2), (coal if coal.exists() else None, 3e-3)):
+    for ct, tol in ((None, 3e-2), (coalescence_table, 3e-3)):
         if tol < 1e-2 and ct is None:
             continue
         s = TripletSurrogate().fit(table, coalescence_table=ct)

@@ -1,22 +1,15 @@
 """Coalesced-triplet table: relabelling symmetry of the stored cube, and re-solves of
 shipped points by Surface Evolver with the settings recorded in the file."""
 import json
-import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from capbridge.dimensionless import canonical_triplet
-from capbridge.solvers.evolver import available
 from capbridge.solvers.triplet import pair_forces, triplet_geometry
 from capbridge.tables.triplet import (PAIR_NAMES, PAIRS, EvolverPlan, TripletGrid,
                                                _expand_to_cube, failure_kind)
 from capbridge.status import Status
-
-TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE",
-                            Path(__file__).resolve().parent.parent / "data" / "triplet_table.nc"))
-
 
 def _phi(d_own, d_others):
     """A pair force that depends on its own gap and on the other two (any labelling)."""
@@ -86,10 +79,10 @@ def test_failure_kinds_from_driver_reasons():
 
 
 @pytest.fixture(scope="module")
-def table():
+def table(triplet_table):
     from capbridge.tables.netcdf_io import read_table
 
-    return read_table(TABLE)
+    return read_table(triplet_table)
 
 
 def test_shipped_table_is_symmetric_under_relabelling(table):
@@ -121,7 +114,6 @@ def test_shipped_table_forces_balance_and_records_its_command(table):
 
 
 @pytest.mark.evolver
-@pytest.mark.skipif(not available(), reason="Surface Evolver not installed")
 def test_shipped_points_resolved_by_evolver(table):
     """Two canonical points of the shipped table solved again with its recorded settings."""
     from capbridge.solvers.triplet_evolver import evolver_triplet

@@ -33,9 +33,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs" / "guide.md"
 REL_TOL = 5e-3
 GAMMA = 0.073
 
-_YADE = yr.find_yade()
-pytestmark = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
+pytestmark = pytest.mark.yade
 
 
 @pytest.fixture(scope="module")

@@ -23,9 +23,6 @@ from capbridge.validation import CapbridgeInputError, interval_text
 
 SCENES = Path(__file__).parent / "yade_scenes"
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "yade_plugin.md"
-_YADE = yr.find_yade()
-needs_yade = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
 
 #: a valid liquid amount for the cases that test another keyword
 OK = {"theta": 20.0, "water_content": 0.01}
@@ -113,7 +110,7 @@ def test_lengths_and_fractions_in_range(name, value, allowed):
 # --------------------------------------------------------------------------------------
 
 
-def test_gamma_has_the_plausible_range_of_predict_si():
+def test_gamma_has_the_plausible_range_of_predict_si(doublet_table):
     """``gamma=72`` (mN/m typed as N/m) is refused like ``predict_si`` refuses it: the
     same constant, the same interval."""
     from capbridge.surrogate.doublet import SI_SURFACE_TENSION_RANGE, DoubletSurrogate
@@ -127,8 +124,7 @@ def test_gamma_has_the_plausible_range_of_predict_si():
     for good in (lo, hi, 0.073):
         assert _engine(gamma=good, label="gamma_ok").gamma == good
     # predict_si refuses the same slip, with the same interval
-    sur = DoubletSurrogate().fit(Path(__file__).resolve().parents[1] / "data"
-                                 / "doublet_table.nc")
+    sur = DoubletSurrogate().fit(doublet_table)
     with pytest.raises(CapbridgeInputError, match=re.escape(allowed)):
         sur.predict_si(1e-3, 1e-3, 72.0, 0.0, 1e-12, 20.0)
 
@@ -413,7 +409,6 @@ YADE_CASES = {
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_bad_keywords_stop_a_real_scene_at_construction():
     """In real YADE, each bad keyword (one fresh scene each, one process) raises
     CapbridgeInputError from the constructor, before O.run (O.iter 0, no PyRunner
@@ -434,7 +429,6 @@ def test_bad_keywords_stop_a_real_scene_at_construction():
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_erasing_every_wet_grain_idles_and_resumes():
     """Every wet sphere erased (a wet row touching a wall, forces held): the engine
     goes on without error, applies nothing (the wall's permanent force is the user's

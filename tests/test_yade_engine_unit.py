@@ -32,6 +32,7 @@ def _random_points(sur, rng, n, thetas, ratios, band=1.05):
     return d_r * rng.uniform(0.0, band, n), v, th, r
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("thetas,ratios", [([0.0], [1.0]), ([40.0], [2.0]),
                                            ([20.0, 30.0], [1.0, 1.5, 10.0])])
 def test_scene_table_is_the_surrogate_on_tabulated_ratios(sur, thetas, ratios):
@@ -184,6 +185,7 @@ def test_liquid_budget_through_ruptures_and_reformations(sur, rule):
             2e-10 / b["initial_count"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("radii,thetas", [((1e-3, 1e-3), (0.0, 60.0)),
                                           ((1.25e-3, 1e-3), (80.0, 0.0))])
 def test_mixed_contact_angles_are_the_exact_solver(sur, radii, thetas):

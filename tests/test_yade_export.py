@@ -22,8 +22,6 @@ GAMMA = 0.073          # N/m
 R_SMALL = 1e-3         # m, the normalising radius r
 REL_TOL = 5e-3         # the issue's 0.5 %
 
-_YADE = yr.find_yade()
-needs_yade = pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 
 
 @pytest.fixture(scope="module")
@@ -367,11 +365,10 @@ def law2_dir(tmp_path_factory, table, table30):
     return d
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.parametrize("theta,ratio,j", [(0.0, 1.0, 10), (0.0, 2.0, 6), (30.0, 1.0, 4),
                                            (30.0, 2.0, 12), (30.0, 10.0, 8)])
-def test_law2_force_in_yade_equals_table(law2_dir, table, table30, theta, ratio, j):
+def test_law2_force_in_yade_equals_table(law2_dir, table, table30, theta, ratio, j, yade):
     """YADE's Law2 with the exported files gives the table's force, and none past rupture."""
     tab = table if theta == 0.0 else table30
     i = tab.ratio_index(ratio)
@@ -383,7 +380,7 @@ def test_law2_force_in_yade_equals_table(law2_dir, table, table30, theta, ratio,
     gaps = [tab.gap[k] for k in ks] + [0.5 * (tab.gap[1] + tab.gap[2]), tab.gap[-1] + 0.2]
     res = _run_law2(law2_dir, ye.theta_suffix(theta), ratio, tab.suction[j], gaps)
     rows = res["rows"]
-    assert res["yade_version"] == _YADE.version
+    assert res["yade_version"] == yade.version
     scale = 2 * np.pi * GAMMA * R_SMALL                  # capbridge's force unit, r = R_SMALL
     for k, row in zip(ks, rows[:4]):
         assert row["interaction"] and row["meniscus"]
@@ -399,7 +396,6 @@ def test_law2_force_in_yade_equals_table(law2_dir, table, table30, theta, ratio,
         assert row["force"] == pytest.approx(row["expected_force"], rel=1e-9, abs=1e-15)
 
 
-@needs_yade
 @pytest.mark.yade
 def test_law2_between_tabulated_ratios_and_suctions(law2_dir, table):
     """Off the grid, YADE interpolates (trilinear) exactly as capbridge's emulation says,
@@ -413,7 +409,6 @@ def test_law2_between_tabulated_ratios_and_suctions(law2_dir, table):
         assert row["force"] == pytest.approx(f_true * 2 * np.pi * GAMMA * R_SMALL, rel=REL_TOL)
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.parametrize("with_edge", [True, False])
 def test_law2_pull_apart_to_rupture(tmp_path, with_edge):
@@ -466,7 +461,6 @@ def test_law2_pull_apart_to_rupture(tmp_path, with_edge):
         assert np.all(forces[~alive] < 1e-12 * forces[0])
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.parametrize("with_edge", [True, False])
 def test_capillarity_engine_pull_apart_to_rupture(tmp_path, with_edge):
@@ -488,7 +482,6 @@ def test_capillarity_engine_pull_apart_to_rupture(tmp_path, with_edge):
     assert np.all(forces[~alive] == 0.0)
 
 
-@needs_yade
 @pytest.mark.yade
 def test_law2_launcher_and_mindlin(law2_dir, table):
     """Same files through ``yade -n -x`` (Debian's python3) and with Hertz-Mindlin physics."""
@@ -522,7 +515,6 @@ def _run_delaunay_file(directory, name, ratio, s_star, gaps_star, volumes_star=N
     return yr.run_yade_script(SCENES / "two_spheres_delaunay.py", args, timeout=120).result
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.parametrize("ratio,j", [(1.0, 10), (2.0, 6), (10.0, 16)])
 def test_capillarity_engine_suction_control(delaunay_dir, table, ratio, j):
@@ -549,7 +541,6 @@ def test_capillarity_engine_suction_control(delaunay_dir, table, ratio, j):
     assert res["rows"][-1]["fCap"] == 0.0 and not res["rows"][-1]["interaction"]
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.parametrize("ratio,j", [(1.0, 12), (2.0, 8)])
 def test_capillarity_engine_volume_control(delaunay_dir, table, ratio, j):
@@ -566,7 +557,6 @@ def test_capillarity_engine_volume_control(delaunay_dir, table, ratio, j):
         assert row["capillaryPressure"] == pytest.approx(_si_suction(table.suction[j]), rel=REL_TOL)
 
 
-@needs_yade
 @pytest.mark.yade
 @pytest.mark.slow
 def test_exact_solver_export_loads_in_yade(tmp_path):

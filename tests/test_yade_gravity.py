@@ -36,13 +36,7 @@ from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY,
 
 SCENE = Path(__file__).parent / "yade_scenes" / "gravity_capbridge.py"
 TRIPLET_SCENE = Path(__file__).parent / "yade_scenes" / "gravity_triplet_capbridge.py"
-_YADE = yr.find_yade()
 G = np.array([0.0, 0.0, -9.81])
-
-
-def _skip_without_yade():
-    if _YADE is None:
-        pytest.skip("Debian's yade is not installed")
 
 
 def _run(*args, timeout=120, scene=SCENE):
@@ -95,7 +89,6 @@ def _check_weight_rides_on_grains(res, ref, rows=None, ref_rows=None):
 @pytest.mark.parametrize("tolerance", [0.0, 1e-3])
 def test_4mm_beads_carry_the_liquid_weight(tolerance):
     """Bo 2.14: applied; forces on the grains sum to drho V g, half on each."""
-    _skip_without_yade()
     res = _run("--radius", 4e-3, "--mode", "auto", "--tolerance", tolerance, "--steps", 40)
     ref = _run("--radius", 4e-3, "--gravity", "none", "--tolerance", tolerance, "--steps", 40)
     line = _startup_line(res)
@@ -117,7 +110,6 @@ def test_4mm_beads_carry_the_liquid_weight(tolerance):
 def test_small_beads_skip_the_correction():
     """0.1 mm beads (Bo 1.3e-3): skipped, with the reason; forces are those of the
     scene without gravity, bit for bit."""
-    _skip_without_yade()
     res = _run("--radius", 1e-4, "--mode", "auto", "--steps", 30)
     ref = _run("--radius", 1e-4, "--gravity", "none", "--steps", 30)
     line = _startup_line(res)
@@ -141,7 +133,6 @@ def test_small_beads_skip_the_correction():
 def test_on_and_off_override_the_decision():
     """'on' applies the correction to the small beads, 'off' removes it from the
     large ones."""
-    _skip_without_yade()
     on = _run("--radius", 1e-4, "--mode", "on", "--steps", 20)
     ref_small = _run("--radius", 1e-4, "--gravity", "none", "--steps", 20)
     assert "applied to every bridge (gravity_correction='on')" in _startup_line(on)
@@ -160,7 +151,6 @@ def test_auto_corrects_each_bridge_on_its_own_size():
     """A 1 mm pair (Bo 0.13) and a 0.1 mm pair (Bo 1.3e-3) in one scene: 'auto' applies
     the correction (the 1 mm bridge is above the table error) to the 1 mm bridge only;
     the 0.1 mm pair keeps its zero-gravity forces bit for bit."""
-    _skip_without_yade()
     res = _run("--radius", 1e-3, "--pair2", 1e-4, "--mode", "auto", "--steps", 30)
     ref = _run("--radius", 1e-3, "--pair2", 1e-4, "--gravity", "none", "--steps", 30)
     st = res["gravity_state"]
@@ -185,7 +175,6 @@ def test_auto_corrects_each_bridge_on_its_own_size():
 def test_gravity_changed_mid_run_is_followed():
     """The user sets another (oblique) gravity at iter 15: the forces follow it
     from that step, a line says so, and the NewtonIntegrator keeps the user's value."""
-    _skip_without_yade()
     g2 = (3.0, 0.0, -4.0)
     res = _run("--radius", 4e-3, "--mode", "auto", "--steps", 30, "--change-at", 15,
                "--gravity2", ",".join(map(str, g2)))
@@ -208,7 +197,6 @@ def test_save_tmp_load_tmp_keeps_forces_bit_identical(tolerance, refresh):
     With refresh_every > 1 the engine restores its held forces at its first update
     after the load (YADE drops permanent forces on load; a property of the engine's
     restart, with or without gravity): the steps before that update are left out."""
-    _skip_without_yade()
     res = _run("--radius", 4e-3, "--mode", "auto", "--steps", 40, "--restart",
                "--tolerance", tolerance, "--refresh", refresh)
     assert res["gravity_state"]["applied"]
@@ -230,7 +218,6 @@ def test_save_and_load_in_a_new_process_keep_the_gravity_settings(tmp_path):
     """O.save with gravity_correction='on' and liquid_density=1260 on 0.1 mm beads
     (which 'auto' would skip), O.load in a new process that makes no engine: the same
     forces bit for bit, the same settings, no new start-up decision."""
-    _skip_without_yade()
     f = tmp_path / "grav.yade.gz"
     ref = _run("--radius", 1e-4, "--mode", "on", "--rho", 1260, "--steps", 30, "--save", f)
     new = _run("--radius", 1e-4, "--steps", 30, "--load", f)
@@ -331,6 +318,7 @@ def _merged_triplet(sur, R):
     return 1.6 * Vc * R**3, triangle_centres(2 + gaps[0], 2 + gaps[1], 2 + gaps[2]) * R
 
 
+@pytest.mark.slow
 def test_cluster_gravity_is_the_tables_response_in_the_scene_frame():
     """A merged triplet (three 1 mm grains, two bridges on grain 2) with gravity: the
     grains get the zero-gravity forces plus the surrogate's gravity response
@@ -389,7 +377,6 @@ def test_yade_triplet_cluster_carries_its_weight(tmp_path):
     one): the start-up line says clusters get it, and the forces YADE holds differ from
     the gravity-free run ('off') by the surrogate's response rotated into the scene;
     together they carry the liquid's weight within the table's sum residual."""
-    _skip_without_yade()
     from capbridge.dem.triplet_clusters import triangle_centres
     from capbridge.dimensionless import force_scale
     from capbridge.solvers.triplet import find_coalescence as exact_coalescence
@@ -497,6 +484,7 @@ def test_doublet_response_from_a_table_that_has_it():
     assert np.abs(f_half - f).max() > 1e-3 * np.linalg.norm(weight)
 
 
+@pytest.mark.slow
 def test_cluster_above_the_bond_range_keeps_its_weight_shared_equally():
     """A cluster at Bo > BOND_MAX (g x 40 on 1 mm grains): no response there, so the
     liquid's weight drho V g is shared equally by the three grains, counted as a

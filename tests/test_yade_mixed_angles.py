@@ -16,9 +16,7 @@ from capbridge.status import Status
 
 SCENES = Path(__file__).parent / "yade_scenes"
 GAMMA = 0.073
-_YADE = yr.find_yade()
-pytestmark = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
+pytestmark = pytest.mark.yade
 
 
 def test_mixed_angle_pull_apart_is_the_exact_solver():

@@ -19,9 +19,7 @@ import pytest
 from capbridge.yade import yade_runtime as yr
 
 SCENES = Path(__file__).parent / "yade_scenes"
-_YADE = yr.find_yade()
-pytestmark = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
+pytestmark = pytest.mark.yade
 PERM = 2e-4
 
 

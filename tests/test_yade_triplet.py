@@ -19,11 +19,10 @@ applied:
   never read, no cluster bookkeeping is made.
 
 The triplet table is ``$CAPBRIDGE_TRIPLET_TABLE`` (default the shipped
-``data/triplet_table.nc``); skipped without it or without YADE.
+``data/triplet_table.nc``; the ``triplet_table`` fixture of conftest.py).
 """
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -33,23 +32,18 @@ from capbridge.yade import yade_runtime as yr
 from capbridge.dimensionless import force_scale
 from capbridge.status import HAS_RESULT
 from capbridge.dem.triplet_clusters import load_surrogate
-from capbridge.surrogate.triplet import default_table
 
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_capbridge.py"
-TABLE = Path(os.environ.get("CAPBRIDGE_TRIPLET_TABLE", default_table()))
 R = 1e-3
 THETA = 60.0
 REL_TOL = 0.01          # the issue's "within 1 %"
-_YADE = yr.find_yade()
-pytestmark = [pytest.mark.yade,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed"),
-              pytest.mark.skipif(not TABLE.exists(), reason=f"no triplet table at {TABLE}")]
+pytestmark = pytest.mark.yade
 
 
 @pytest.fixture(scope="module")
-def sur():
+def sur(triplet_table):
     """The surrogate as the engine fits it (with the dense V_coal table beside it)."""
-    return load_surrogate(TABLE)
+    return load_surrogate(triplet_table)
 
 
 def _path(sur):
@@ -60,7 +54,7 @@ def _path(sur):
     return [0.5, g01_end, g], 1.5 * hi
 
 
-def _run(sur, v, triplet_forces="on", steps=(150, 20, 100, 10), extra=()):
+def _run(sur, table, v, triplet_forces="on", steps=(150, 20, 100, 10), extra=()):
     """The closing scene with two bridges of v V*_coal / 2 each (V*_coal at the end of
     the closing path)."""
     gaps, pull = _path(sur)
@@ -68,16 +62,16 @@ def _run(sur, v, triplet_forces="on", steps=(150, 20, 100, 10), extra=()):
     volume = v * Vc * R**3 / 2
     args = ["--closing", "--r", R, "--theta", THETA, "--volume", repr(volume),
             "--gaps", ",".join(map(repr, gaps)), "--pull-gap", pull,
-            "--steps", ",".join(map(str, steps)), "--table", TABLE,
+            "--steps", ",".join(map(str, steps)), "--table", table,
             "--triplet-forces", triplet_forces, *extra]
     res = yr.run_yade_script(SCENE, [str(a) for a in args], timeout=300).result
     return res, volume
 
 
-def test_triplet_forces_then_split_in_yade(sur):
+def test_triplet_forces_then_split_in_yade(sur, triplet_table):
     from capbridge.solvers.young_laplace import solve_doublet
 
-    res, vb = _run(sur, 1.15)
+    res, vb = _run(sur, triplet_table, 1.15)
     rows = res["rows"]
     n_cl = np.array([row["triplets"].get("clusters", 0) for row in rows])
     merged = np.flatnonzero(n_cl == 1)
@@ -126,10 +120,10 @@ def test_triplet_forces_then_split_in_yade(sur):
         [tuple(p) for p in zip(last["bi"], last["bj"])].index((0, 2))], rel=1e-12)
 
 
-def test_no_coalescence_no_triplet_work(sur):
+def test_no_coalescence_no_triplet_work(sur, triplet_table):
     """Bridges far too small to coalesce on the same path: no cluster bookkeeping is
     made and the triplet table is never read."""
-    res, _ = _run(sur, 0.3, steps=(60, 0, 20, 0))
+    res, _ = _run(sur, triplet_table, 0.3, steps=(60, 0, 20, 0))
     for row in res["rows"]:
         t = row["triplets"]
         assert t == {"enabled": True, "table_loaded": False, "clusters": 0}
@@ -137,10 +131,10 @@ def test_no_coalescence_no_triplet_work(sur):
     assert not any("triplet table" in m for m in res["messages"])
 
 
-def test_cluster_survives_save_and_load(sur):
+def test_cluster_survives_save_and_load(sur, triplet_table):
     """O.saveTmp with a merged cluster, 5 steps, O.loadTmp, the same 5 steps: the
     cluster is restored (events, volume) and YADE gets bit-identical forces."""
-    res, vb = _run(sur, 1.15, steps=(150, 5, 0, 0), extra=("--restart", 5))
+    res, vb = _run(sur, triplet_table, 1.15, steps=(150, 5, 0, 0), extra=("--restart", 5))
     a, b = res["restart"]
     assert a[0]["triplets"]["clusters"] == 1
     # the restored cluster is the saved one (merged before the save), not a new merge

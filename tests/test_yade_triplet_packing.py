@@ -15,16 +15,13 @@ from pathlib import Path
 import pytest
 
 from capbridge.yade import yade_runtime as yr
-from capbridge.surrogate.triplet import default_table
 
 SCENE = Path(__file__).parent / "yade_scenes" / "triplet_packing.py"
-_YADE = yr.find_yade()
-pytestmark = [pytest.mark.yade, pytest.mark.slow,
-              pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
+pytestmark = [pytest.mark.yade, pytest.mark.slow]
 
 
-def test_coalesced_triplets_stay_merged_in_a_packing_at_rest():
-    run = yr.run_yade_script(SCENE, ["--n", "300", "--table", str(default_table()),
+def test_coalesced_triplets_stay_merged_in_a_packing_at_rest(shipped_triplet_table):
+    run = yr.run_yade_script(SCENE, ["--n", "300", "--table", str(shipped_triplet_table),
                                      "--steps", "300"], timeout=600)
     res = run.result
     ev = res["triplets"]["events"]

@@ -35,9 +35,6 @@ from capbridge.dem.wall_bridges import _closest_on_triangles
 from capbridge.solvers.sphere_wall import solve_sphere_wall
 
 SCENES = Path(__file__).parent / "yade_scenes"
-_YADE = yr.find_yade()
-yade_only = [pytest.mark.yade,
-             pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")]
 #: the sphere-wall table's interpolation error, measured for the (20, 40) deg slice
 #: (largest relative error over 8 random gaps in every volume cell: 5.5e-3)
 TABLE_ERROR = 6e-3
@@ -55,7 +52,6 @@ def wall_run(tmp_path_factory):
 
 @pytest.mark.parametrize("k, partner", [(0, "Wall"), (1, "Box"), (2, "Facet")])
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_wall_force_equals_exact_sphere_plane_bridge(wall_run, k, partner):
     """Pull-apart from each partner kind: force on the sphere = exact F*(d*, V*) 2 pi
     gamma R within the table's error, along the normal; reaction exactly opposite;
@@ -93,7 +89,6 @@ def test_wall_force_equals_exact_sphere_plane_bridge(wall_run, k, partner):
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_facet_reaction_torque(wall_run):
     """The reaction on the facet acts at the foot: its torque about the facet's centre
     is (foot - centre) x F_wall."""
@@ -113,7 +108,6 @@ def test_facet_reaction_torque(wall_run):
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_wall_vtk_read_back(wall_run):
     """cap.write_vtk: one line per wall bridge from the sphere centre to the foot on
     the partner, volume V* R^3, the force vector, flagged as wall bridges; the
@@ -148,7 +142,6 @@ def read_pvd(path):
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_wall_contact_limit_small_volume():
     """F -> 4 pi gamma R cos(theta) at contact as V* -> 0 (theta = 0 here): the engine
     at the table's smallest V* = 1e-3 gives the exact solver's value (a table node, to
@@ -168,7 +161,6 @@ def test_wall_contact_limit_small_volume():
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_wall_bridges_conserve_liquid():
     """Conserving rule: each wall bridge takes half its sphere's film (V* R^3 of 2 V*
     R^3) at the first step and returns all of it at rupture; the ledger balances
@@ -185,7 +177,6 @@ def test_wall_bridges_conserve_liquid():
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_wall_bridges_survive_save_tmp_load_tmp():
     """O.saveTmp, 60 steps in which the three wall bridges rupture, O.loadTmp, the same
     60 steps: the forces on spheres and walls are the same (to 1e-9 of the largest),
@@ -209,7 +200,6 @@ def periodic_run(tmp_path_factory):
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_periodic_pull_apart_across_boundary_equals_inside(periodic_run):
     """Sheared periodic cell: the pull-apart whose grains touch only through the
     boundary (their scene distance is ~L) gives the forces of the pull-apart inside the
@@ -230,7 +220,6 @@ def test_periodic_pull_apart_across_boundary_equals_inside(periodic_run):
 
 
 @pytest.mark.yade
-@pytest.mark.skipif(_YADE is None, reason="Debian's yade is not installed")
 def test_periodic_vtk_lines_use_nearest_image(periodic_run):
     """VTK: the bridge across the boundary is drawn from its first grain to the nearest
     image of the second (length 2R + gap, not ~L); volumes read back bit for bit, the

@@ -210,6 +210,7 @@ def _small_bridges(n, vmax, tmax, frac, seed):
     return d, v, t, r["force"]
 
 
+@pytest.mark.slow
 def test_willett_numeric_within_a_few_percent():
     """Willett et al. (2000) numeric fit, V* < 0.1, theta < 50: 'a few %' (measured
     against this solver: median 0.6 %, max 6.8 % up to 0.9 d_rupt)."""
@@ -219,6 +220,7 @@ def test_willett_numeric_within_a_few_percent():
     assert rel.max() < 0.08
 
 
+@pytest.mark.slow
 def test_cylindrical_pitois_and_richefeu():
     """Pitois' cylindrical and Richefeu's exponential laws for V* < 0.01, theta < 40,
     d* < d_rupt/2.  Their error is not quantified in the sources; the design card puts
@@ -235,6 +237,7 @@ def test_cylindrical_pitois_and_richefeu():
     assert np.all(pitois_cylindrical_force(0.0, v, t) > r0)
 
 
+@pytest.mark.slow
 def test_lian_and_willett_rupture_distances():
     """Lian et al. (1993) (1 + theta/2) V*^(1/3) for small volumes: within 3 % for
     V* <= 0.03, theta <= 40 deg (measured 0.2-2.7 %; e.g. 0.219 against 0.215 at
@@ -255,6 +258,7 @@ def test_lian_and_willett_rupture_distances():
 # ------------------------------------------------------------------ rupture and stability
 
 
+@pytest.mark.slow
 def test_ruptured_beyond_and_converged_below(mixed):
     """Just beyond d_rupt: RUPTURED with force 0 (never a number labelled converged);
     just below: CONVERGED; rupture itself is CONVERGED."""
@@ -331,6 +335,7 @@ def test_rupture_distance_vectorised_and_consistent():
 # ------------------------------------------------------------------ suction control
 
 
+@pytest.mark.slow
 def test_suction_solve_consistent_with_volume_solve():
     """Volume solve -> P*; the suction solve at that P* and gap returns the same bridge
     (volume and force to 1e-8) wherever that bridge is on the suction-stable branch
@@ -352,6 +357,7 @@ def test_suction_solve_consistent_with_volume_solve():
     np.testing.assert_allclose(s["beta2"], r["beta2"], rtol=1e-8)
 
 
+@pytest.mark.slow
 def test_suction_branch_and_rupture():
     """At fixed P* the gap falls as the bridge widens on the stable branch; beyond the
     largest gap the status is RUPTURED with force 0."""
@@ -372,6 +378,7 @@ def test_suction_branch_and_rupture():
     assert np.all(np.diff(suction_rupture_distance(P, 0.0)["gap"]) > 0)
 
 
+@pytest.mark.slow
 def test_suction_grid_like_yade_tables():
     """A grid of suction x gap for ratios 1 and 10 (YADE's range): every point either
     converges or is RUPTURED exactly beyond the largest gap at its pressure."""

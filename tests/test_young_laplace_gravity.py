@@ -60,6 +60,7 @@ def test_ruptured_without_gravity():
 # ------------------------------------------------------------------ the liquid's weight
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("gravity_axis", [-1.0, 1.0])
 def test_grains_share_the_weight(gravity_axis):
     """The liquid is in equilibrium: the forces on the two grains differ by its weight,
@@ -160,6 +161,7 @@ def test_flipping_gravity_mirrors_the_bridge():
 # ------------------------------------------------------------------ end of the branch
 
 
+@pytest.mark.slow
 def test_gravity_ruptures_a_large_bridge():
     """A large bridge near its zero-gravity rupture (d* = 0.5, V* = 0.3, theta = 0,
     d*_rupt = 0.734) loses its stable state as Bo grows: the stability indicator falls
@@ -195,6 +197,7 @@ def test_bad_input_is_one_clear_error(kw, text):
 # ------------------------------------------------------------------ rupture distance
 
 
+@pytest.mark.slow
 def test_rupture_distance_without_gravity_is_the_zero_gravity_one():
     """At Bo = 0 the walk in the gap ends where the zero-gravity solver puts rupture, to
     1e-7: the fold of an unequal pair (ratio 2) and, for equal grains and angles, the
@@ -209,6 +212,7 @@ def test_rupture_distance_without_gravity_is_the_zero_gravity_one():
     np.testing.assert_allclose(g["force"], z["force"], rtol=1e-5)
 
 
+@pytest.mark.slow
 def test_rupture_distance_with_gravity_is_where_solutions_end():
     """At Bo = 2.14 (V* = 0.05, theta = 30, equal grains) gravity shortens the rupture
     distance (0.4775 -> 0.432), and the two continuations agree: just below d*_rupt(Bo)
