@@ -257,13 +257,13 @@ def validate_doublet_table(ds: xr.Dataset, source="table") -> xr.Dataset:
     """Refuse a doublet table whose axes, units or values are not physical.
 
     Beyond :func:`capbridge.generator.netcdf_io.validate_table` (checksums, increasing
-    axes, units, and :func:`capbridge.generator.table_checks.check_doublet`: where
-    converged, finite values, filling angles in [0, 180] deg, neck radius and rupture
-    distance > 0, |F*| <= 2 ratio/(1 + ratio), the largest force two spheres can exert
-    through a bridge (contact, V* -> 0, theta = 0: Derjaguin's 2 pi gamma R_eff with
-    R_eff = R1 R2/(R1 + R2)), the gravity response's invariants): the doublet units
-    (:data:`UNITS`), the variables a lookup needs, ratio >= 1, theta in [0, 180) deg,
-    V* > 0, s in [0, 1].  Raises :class:`TableError`.
+    axes, units; for a file also :func:`capbridge.generator.table_checks.check_doublet`,
+    which repeats the bounds below and adds the gravity response's invariants): the
+    doublet units (:data:`UNITS`); ratio >= 1, theta in [0, 180) deg,
+    V* > 0, s in [0, 1]; where converged, filling angles in [0, 180] deg, neck radius
+    and rupture distance > 0, and |F*| <= 2 ratio/(1 + ratio), the largest force two
+    spheres can exert through a bridge (contact, V* -> 0, theta = 0: Derjaguin's
+    2 pi gamma R_eff with R_eff = R1 R2/(R1 + R2)).  Raises :class:`TableError`.
     """
     validate_table(ds, source, UNITS)
     missing = [v for v in OUTPUTS + ("status", "rupture_gap", "rupture_status") if v not in ds]
@@ -277,4 +277,20 @@ def validate_doublet_table(ds: xr.Dataset, source="table") -> xr.Dataset:
         if v.min() < lo or v.max() > hi:
             raise TableError(f"{source}: coordinate {name} spans [{v.min():g}, {v.max():g}], "
                              f"outside the physical range {text}")
+    ok = ds["status"].values == Status.CONVERGED
+    limit = (2 * ds["ratio"] / (1 + ds["ratio"])).values.reshape(-1, *(1,) * 3)
+    checks = {"force": np.abs(ds["force"].values) <= limit * (1 + 1e-6),
+              "beta1": (ds["beta1"].values >= 0) & (ds["beta1"].values <= 180),
+              "beta2": (ds["beta2"].values >= 0) & (ds["beta2"].values <= 180),
+              "neck_radius": ds["neck_radius"].values > 0}
+    for name, good in checks.items():
+        bad = ok & ~good
+        if bad.any():
+            i = tuple(int(k) for k in np.argwhere(bad)[0])
+            raise TableError(f"{source}: {name}={ds[name].values[i]!r} at index {i} (ratio, "
+                             f"theta, volume, s) is not physical for a converged point "
+                             f"(|F*| <= 2 ratio/(1+ratio), angles in [0, 180], neck > 0)")
+    rok = ds["rupture_status"].values == Status.CONVERGED
+    if np.any(rok & ~(ds["rupture_gap"].values > 0)):
+        raise TableError(f"{source}: a converged rupture distance is not positive")
     return ds

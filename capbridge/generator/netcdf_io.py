@@ -19,8 +19,9 @@ A file without ``table_sha256`` (older capbridge, or a checksum deleted) is
 *unverified*: :func:`read_table` refuses it unless the caller allows it explicitly
 (``allow_unverified=True``, or inside :func:`allow_unverified_tables`; the command line's
 ``--allow-unverified-table``), and then logs one warning line.  Whatever the checksum,
-a table also goes through the checks of what its generator guarantees
-(:mod:`capbridge.generator.table_checks`: units, physical bounds, sum rules, symmetry).
+a table read from a file also goes through the checks of what its generator guarantees
+(:mod:`capbridge.generator.table_checks`: units, physical bounds, sum rules, symmetry);
+a Dataset built or edited in memory is the caller's (:func:`validate_table`).
 
 Coordinates carry no ``_FillValue`` (CF: coordinates have no missing values), and
 :func:`read_table` checks that they are finite and strictly increasing and that every
@@ -588,13 +589,16 @@ def validate_table(ds: xr.Dataset, source="table",
     attributes, ``data_sha256`` over values; a mismatch means an edited or damaged
     file); dimension coordinates finite and strictly increasing; ``units`` on every
     coordinate and variable; the units in ``expect_units`` (name -> units) where the
-    variable exists; what the table's generator guarantees
-    (:func:`capbridge.generator.table_checks.check_table`: the units of every variable
-    the code reads, physical bounds, sum rules, symmetry).  For a file (``file=True``,
-    as :func:`read_table` does): the ``grid`` attribute against the coordinates, and
-    a table without ``table_sha256`` is refused unless ``allow_unverified``
-    (:func:`unverified_allowed`), then logged in one warning line.  A Dataset built in
-    memory (``file=False``) needs no checksum; one it carries is verified.
+    variable exists.  For a file (``file=True``, as :func:`read_table` does): what the
+    table's generator guarantees (:func:`capbridge.generator.table_checks.check_table`:
+    the units of every variable the code reads, physical bounds, sum rules, symmetry),
+    the ``grid`` attribute against the coordinates, and a table without
+    ``table_sha256`` is refused unless ``allow_unverified`` (:func:`unverified_allowed`),
+    then logged in one warning line.  A Dataset built or edited in memory
+    (``file=False``: the surrogates' ``fit`` of a Dataset, the generators' own tables
+    before they are written) is the caller's: it needs no checksum (one it carries is
+    verified) and gets the structural checks only; it is checked in full once written
+    and read back.
 
     Raises :class:`TableError` naming ``source`` and the first problem.
     """
@@ -623,10 +627,18 @@ def validate_table(ds: xr.Dataset, source="table",
             raise TableError(f"{source}: {name!r} has units {ds[name].attrs.get('units')!r}, "
                              f"expected {units!r}; capbridge tables are dimensionless by "
                              f"R1 and gamma with angles in degrees")
-    from capbridge.generator.table_checks import check_table
-
-    check_table(ds, source)
     if file:
+        from capbridge.generator.table_checks import check_table
+
+        try:
+            check_table(ds, source)
+        except TableError:
+            raise
+        except (KeyError, IndexError, ValueError, TypeError) as exc:
+            # a layout no generator writes (odd dimensions, types): damaged, not a bug
+            raise TableError(f"{source}: cannot be checked ({type(exc).__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else ''}); the table "
+                             f"is damaged or was not made by capbridge") from None
         _check_grid_attribute(ds, source)
         if TABLE_CHECKSUM not in ds.attrs:
             _unverified(ds, source, allow_unverified)
@@ -634,20 +646,26 @@ def validate_table(ds: xr.Dataset, source="table",
 
 
 def _check_grid_attribute(ds, source):
-    text = ds.attrs.get("grid")
-    if text is None:
-        return
+    """The ``grid`` attribute (JSON, written by :func:`write_table` from the
+    coordinates) must give every dimension it names the table's coordinate values.
+    A ``grid`` that is not such a mapping (a caller's own ``extra_attrs``) is not
+    compared."""
     try:
-        grid = json.loads(str(text))
-        same = isinstance(grid, dict) and _same_grid(
-            {k: v for k, v in grid.items() if k in ds.dims}, table_grid(ds)) and \
-            set(grid) <= set(ds.dims)
-    except (ValueError, TypeError):
+        grid = json.loads(str(ds.attrs.get("grid")))
+    except ValueError:
+        return
+    if not isinstance(grid, dict):
+        return
+    axes = table_grid(ds)
+    named = {k: v for k, v in grid.items() if k in axes}
+    try:
+        same = _same_grid(named, {k: axes[k] for k in named})
+    except (TypeError, ValueError):
         same = False
     if not same:
         raise TableError(f"{source}: global attribute 'grid' does not match the table's "
-                         f"coordinates ({_grid_summary(table_grid(ds))} values): edited or "
-                         f"damaged; regenerate it, or use the original file")
+                         f"coordinates ({_grid_summary(axes)} values): edited or damaged; "
+                         f"regenerate it, or use the original file")
 
 
 def _unverified(ds, source, allow_unverified):

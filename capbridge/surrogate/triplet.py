@@ -646,10 +646,9 @@ class TripletSurrogate:
         keeps the triplet table's own values at its nodes.  The kinks then lie on the
         planes of equal gaps, which the fine grid's simplices never cross.  V0, dV: the
         coalescence table's linear law at the sorted gaps."""
-        from capbridge.generator.netcdf_io import read_table, validate_table
+        from capbridge.generator.netcdf_io import read_table
 
-        dc = validate_table(table, "coalescence table (Dataset)") \
-            if isinstance(table, xr.Dataset) else \
+        dc = table if isinstance(table, xr.Dataset) else \
             read_table(table, allow_unverified=self._allow_unverified)
         src = "coalescence table" if isinstance(table, xr.Dataset) else str(table)
         for n in ("V_coal_pair", "V0_pair", "dV_pair"):
