@@ -63,8 +63,9 @@ reproduce: setup
 	$(VENV)/bin/capbridge reproduce miot2021 --checkpoint-dir .sweep-checkpoints/miot2021
 
 # Regenerates the shipped tables (resumable: rerun after a kill to continue).  The
-# doublet and coalescence tables take minutes; the triplet table hours of Surface Evolver
-# (its committed checkpoints in sweeps/triplet are reused point by point).
+# doublet table takes about 1 h 45 min on 2 cores (most of it its gravity response), the
+# coalescence table 8 min; the triplet table hours of Surface Evolver (its committed
+# checkpoints in sweeps/triplet are reused point by point: a minute).
 data: setup
 	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
 	$(VENV)/bin/capbridge generate coalescence --checkpoint-dir .sweep-checkpoints/triplet_coalescence

@@ -38,7 +38,8 @@ def synthetic_triplet_table(seed=0, fail_node=False):
     ds = read_table(DEFAULT_TRIPLET_TABLE)
     drop = [n for n in ds.variables if "gravity" in str(n)]
     ds = ds.drop_vars(drop)
-    ds.attrs.pop("data_sha256", None)
+    for key in ("data_sha256", "table_sha256"):
+        ds.attrs.pop(key, None)
     rng = np.random.default_rng(seed)
     gv = np.array([0.85, 1.25, 2.0])
     shape = (ds.sizes["d12"], ds.sizes["d13"], ds.sizes["d23"], ds.sizes["theta"], gv.size)
@@ -72,7 +73,8 @@ def synthetic_doublet_table():
     the axis on a smaller one, shorter with grain 1 below, longer with it above:
     d_rupt(Bo) = d_rupt(0) (1 + 0.04 Bo gravity_axis)."""
     ds = read_table(DEFAULT_TABLE)
-    ds.attrs.pop("data_sha256", None)
+    for key in ("data_sha256", "table_sha256"):
+        ds.attrs.pop(key, None)
     # without the shipped table's own gravity response, if it has one
     gdims = {"gravity_theta", "gravity_volume", "gravity_s", "rupture_bond",
              "rupture_gravity_axis", "rupture_ratio", "rupture_theta", "rupture_volume"}
@@ -97,6 +99,7 @@ def synthetic_doublet_table():
     rup = d0[None, None] * (1.0 + 0.04 * bonds[:, None, None, None, None]
                             * axes[None, :, None, None, None])
     one = {"units": "1", "long_name": "synthetic"}
+    deg = {"units": "degree", "long_name": "synthetic"}       # angles: the table's units
     gdims = ("ratio", "gravity_theta", "gravity_volume", "gravity_s")
     rdims = ("rupture_bond", "rupture_gravity_axis", "rupture_ratio", "rupture_theta",
              "rupture_volume")
@@ -105,13 +108,13 @@ def synthetic_doublet_table():
          "gravity_status": (gdims, np.zeros(shape, np.int8), {"long_name": "status"}),
          "rupture_gap_gravity": (rdims, rup, one),
          "rupture_gravity_status": (rdims, np.zeros(rup.shape, np.int8), {"long_name": "s"})},
-        coords={"gravity_theta": ("gravity_theta", th[it], one),
+        coords={"gravity_theta": ("gravity_theta", th[it], deg),
                 "gravity_volume": ("gravity_volume", vol[iv], one),
                 "gravity_s": ("gravity_s", s[i_s], one),
                 "rupture_bond": ("rupture_bond", bonds, one),
                 "rupture_gravity_axis": ("rupture_gravity_axis", axes, one),
                 "rupture_ratio": ("rupture_ratio", ratio[jr], one),
-                "rupture_theta": ("rupture_theta", th[jt], one),
+                "rupture_theta": ("rupture_theta", th[jt], deg),
                 "rupture_volume": ("rupture_volume", vol[kv], one)})
     return xr.merge([ds, add], combine_attrs="override")
 
@@ -146,7 +149,8 @@ def add_synthetic_holdout(ds, surrogate):
     a = np.array([r[:10] for r in rows], float)
     one = {"units": "1", "long_name": "synthetic"}
     dim = ("gravity_holdout",)
-    hv = {f"gravity_holdout_{k}": (dim, a[:, i], one) for i, k in
+    hv = {f"gravity_holdout_{k}": (dim, a[:, i], one | ({"units": "degree"} if k == "theta"
+                                                         else {})) for i, k in
           enumerate(("d12", "d13", "d23", "theta", "v", "volume", "bond"))}
     hv["gravity_holdout_direction"] = (dim + ("component",), a[:, 7:10], one)
     hv["gravity_holdout_orientation"] = (dim, np.array([r[10] for r in rows], object), one)

@@ -33,7 +33,8 @@ def sur(table):
 def _editable(table):
     """A copy whose values may be changed (the checksum would refuse an edit)."""
     ds = table.copy(deep=True)
-    ds.attrs.pop("data_sha256", None)
+    for key in ("data_sha256", "table_sha256"):
+        ds.attrs.pop(key, None)
     return ds
 
 

@@ -2,7 +2,9 @@
 
 Every user error ends in one line ``capbridge: error: ...`` and exit status 2 (``--debug``
 anywhere on the line shows the traceback instead); a sweep with failed chunks exits 3
-("N chunks failed, rerun to retry"), an internal error 1.
+("N chunks failed, rerun to retry"), an internal error 1.  ``--allow-unverified-table``
+anywhere on the line uses tables without a table checksum (older or edited files), with
+one warning line each, instead of refusing them.
 """
 from __future__ import annotations
 
@@ -306,7 +308,7 @@ HOLDOUT_BAND = 0.2
 
 def cmd_info_table(args):
     """Describe one table, or every shipped table when no --table is given."""
-    from capbridge.tables.netcdf_io import read_table
+    from capbridge.tables.netcdf_io import checksum_state, read_table
 
     if args.table is None:
         for path in (DEFAULT_TABLE, DEFAULT_TRIPLET_TABLE, DEFAULT_COALESCENCE_TABLE):
@@ -323,8 +325,8 @@ def cmd_info_table(args):
     ds = validate_doublet_table(ds, args.table)
     print(f"table: {args.table}")
     print(f"  made by: {ds.attrs.get('capbridge_command')}")
-    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; data checksum: "
-          f"{'verified' if 'data_sha256' in ds.attrs else 'none (table older than checksums)'}")
+    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; table checksum: "
+          f"{checksum_state(ds)}")
     for name in ("ratio", "theta", "volume", "s"):
         c = ds[name].values
         print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  "
@@ -413,11 +415,13 @@ def _info_triplet_gravity(ds, path):
 
 
 def _print_header(ds, path, axes):
+    from capbridge.tables.netcdf_io import checksum_state
+
     print(f"table: {path}")
     print(f"  {ds.attrs.get('title', '')}")
     print(f"  made by: {ds.attrs.get('capbridge_command')}")
-    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; data checksum: "
-          f"{'verified' if 'data_sha256' in ds.attrs else 'none'}")
+    print(f"  source commit: {ds.attrs.get('git_commit', 'not recorded')}; table checksum: "
+          f"{checksum_state(ds)}")
     for name in axes:
         c = ds[name].values
         print(f"  {name:7s} {len(c):3d} values in [{c.min():g}, {c.max():g}]  "
@@ -784,6 +788,8 @@ def cmd_reproduce(args):
 
 
 V_MAX_DEFAULT = 2.5
+#: global option (anywhere on the line, like --debug): use unverified tables
+ALLOW_UNVERIFIED_OPTION = "--allow-unverified-table"
 
 # a negative number in any float notation (argparse's own pattern misses "-1e6")
 _NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$"
@@ -830,7 +836,10 @@ _REFINE_HINT = ("Surface Evolver results need level 2 at least: the error estima
 
 def build_parser():
     p = _Parser(prog="capbridge", description=__doc__,
-                epilog="--debug (anywhere): show the traceback of an error")
+                epilog="--debug (anywhere): show the traceback of an error; "
+                       "--allow-unverified-table (anywhere): use tables without a table "
+                       "checksum (older capbridge, or edited) with a warning instead of "
+                       "refusing them (their physical checks still apply)")
     sub = p.add_subparsers(dest="command_name", required=True)
 
     solve = sub.add_parser("solve", help="exact solvers").add_subparsers(dest="what", required=True)
@@ -1037,14 +1046,18 @@ def main(argv=None):
     3 not converged or failed chunks, 130 interrupted)."""
     from capbridge.tables.sweep import SweepFailedError
 
+    from capbridge.tables.netcdf_io import allow_unverified_tables
+
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
-    argv = [a for a in argv if a != "--debug"]
+    allow = ALLOW_UNVERIFIED_OPTION in argv
+    argv = [a for a in argv if a not in ("--debug", ALLOW_UNVERIFIED_OPTION)]
     _configure_logging(debug)
     args = build_parser().parse_args(argv)
-    args.argv = argv
+    args.argv = argv + ([ALLOW_UNVERIFIED_OPTION] if allow else [])
     try:
-        return args.func(args)
+        with allow_unverified_tables(allow):
+            return args.func(args)
     except Exception as exc:
         if debug:
             raise

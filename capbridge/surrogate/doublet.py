@@ -149,19 +149,23 @@ class DoubletSurrogate(SurrogateBase):
         self.clip_hint = clip_hint
 
     # ----------------------------------------------------------------------------- fit
-    def fit(self, table):
+    def fit(self, table, *, allow_unverified=None):
         """Load and validate a table (path or Dataset); refinement is done lazily.
 
         The table is checked (:func:`~capbridge.tables.doublet.validate_doublet_table`:
-        axes, units, checksum, physical bounds) and so are this surrogate's
-        refinement settings against those of the table's error model.
+        checksums, axes, units, physical bounds and the gravity response's invariants)
+        and so are this surrogate's refinement settings against those of the table's
+        error model.  A file without the table checksum ``table_sha256`` is refused
+        unless ``allow_unverified=True`` (or inside
+        :func:`capbridge.tables.netcdf_io.allow_unverified_tables`); a Dataset
+        built in memory needs none (:func:`~capbridge.tables.netcdf_io.read_table`).
         """
         from capbridge.tables.doublet import validate_doublet_table
 
         if isinstance(table, xr.Dataset):
             ds = validate_doublet_table(table, "doublet table (Dataset)")
         else:
-            ds = validate_doublet_table(_open(table), str(table))
+            ds = validate_doublet_table(_open(table, allow_unverified), str(table))
         refine, theta_step = self._settings(self.refine, self.theta_step)
         if any(k.startswith("holdout_") for k in ds.attrs):
             ref = int(ds.attrs.get("holdout_refine", DEFAULT_REFINE))
@@ -849,10 +853,10 @@ def default_table():
     return DATA_DIR / "doublet_table.nc"
 
 
-def _open(path):
+def _open(path, allow_unverified=None):
     from capbridge.tables.netcdf_io import read_table
 
-    return read_table(path)
+    return read_table(path, allow_unverified=allow_unverified)
 
 
 #: Bond numbers of the doublet table's held-out check with gravity (issue 10's values)

@@ -359,7 +359,8 @@ class TripletSurrogate(SurrogateBase):
         self.clip_hint = clip_hint
 
     # ----------------------------------------------------------------------------- fit
-    def fit(self, table, coalescence_table=None, separated_energy=None):
+    def fit(self, table, coalescence_table=None, separated_energy=None, *,
+            allow_unverified=None):
         """Load a triplet table, check it and build the fine grids.
 
         Parameters
@@ -384,8 +385,14 @@ class TripletSurrogate(SurrogateBase):
             volume, on the table's (d12, d13, d23, theta, v) grid; NaN where no
             separated state exists).  Default: the table's own ``energy_separated``
             if it has one; without either, ``lower_energy_state`` is "unknown".
+        allow_unverified : bool, optional
+            Use table files without the table checksum ``table_sha256`` (one warning
+            line each) instead of refusing them
+            (:func:`~capbridge.tables.netcdf_io.read_table`); default: refused,
+            unless inside :func:`~capbridge.tables.netcdf_io.allow_unverified_tables`.
         """
-        ds = self._load(table)
+        self._allow_unverified = allow_unverified
+        ds = self._load(table, allow_unverified)
         self.table_ = ds
         gaps = np.asarray(ds["d12"].values, float)
         self.gaps_ = gaps
@@ -454,13 +461,13 @@ class TripletSurrogate(SurrogateBase):
         return self
 
     @staticmethod
-    def _load(table):
+    def _load(table, allow_unverified=None):
         from capbridge.tables.netcdf_io import TableError, read_table, validate_table
 
         if isinstance(table, xr.Dataset):
             ds, src = validate_table(table, "triplet table (Dataset)"), "triplet table"
         else:
-            ds, src = read_table(table), str(table)
+            ds, src = read_table(table, allow_unverified=allow_unverified), str(table)
         need = ("f12", "f13", "f23", "pressure", "energy_extrapolated", "status",
                 "force_error", "volume_coalescence")
         missing = [n for n in need if n not in ds]
@@ -497,7 +504,7 @@ class TripletSurrogate(SurrogateBase):
         src = separated_energy
         if not isinstance(src, (xr.Dataset, xr.DataArray)):
             from capbridge.tables.netcdf_io import read_table
-            src = read_table(src)
+            src = read_table(src, allow_unverified=self._allow_unverified)
         if isinstance(src, xr.Dataset):
             src = src["energy_separated"]
         da = src.transpose("d12", "d13", "d23", "theta", "v")
@@ -538,7 +545,8 @@ class TripletSurrogate(SurrogateBase):
         coalescence table's linear law at the sorted gaps."""
         from capbridge.tables.netcdf_io import read_table
 
-        dc = table if isinstance(table, xr.Dataset) else read_table(table)
+        dc = table if isinstance(table, xr.Dataset) else \
+            read_table(table, allow_unverified=self._allow_unverified)
         src = "coalescence table" if isinstance(table, xr.Dataset) else str(table)
         for n in ("V_coal_pair", "V0_pair", "dV_pair"):
             if n not in dc:

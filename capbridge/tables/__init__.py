@@ -5,3 +5,9 @@ from pathlib import Path
 
 #: the shipped tables' folder (``data/`` beside the package)
 DATA_DIR = Path(__file__).resolve().parents[2] / "data"
+
+# reading a table file runs the checks of its kind (units, bounds, sum rules, symmetry)
+from capbridge.tables import checks as _checks  # noqa: E402
+from capbridge.tables.netcdf_io import register_table_checks  # noqa: E402
+
+register_table_checks(_checks.check_table, _checks.table_kind)

@@ -463,7 +463,7 @@ def coalescence_chunk(d12, d13, d23, theta, configuration="pair"):
     return {"V_coal": V, "criterion": crit, "cpu": cpu, "status": st}
 
 
-_ATTRS = {
+COALESCENCE_ATTRS = {
     "d12": dict(units="1", long_name="gap between the surfaces of grains 1 and 2, d*12 = d12/r"),
     "d13": dict(units="1", long_name="gap between the surfaces of grains 1 and 3, d*13 = d13/r"),
     "d23": dict(units="1", long_name="gap between the surfaces of grains 2 and 3, d*23 = d23/r"),
@@ -489,7 +489,7 @@ _ATTRS = {
 
 def _criterion_attrs(c):
     codes = ", ".join(f"{k}: {name}" for name, k in CRITERION_CODES.items())
-    return {"units": "1", "long_name": f"{_ATTRS['criterion']['long_name']} ({c})",
+    return {"units": "1", "long_name": f"{COALESCENCE_ATTRS['criterion']['long_name']} ({c})",
             "criterion_codes": f"{_NO_CRITERION}: none found, {codes}",
             "criteria": "; ".join(f"{k}: {v}" for k, v in CRITERIA.items())}
 
@@ -505,7 +505,7 @@ def _cube_index(nodes, n, configuration):
     return idx
 
 
-def _fit_rows(theta, V, status):
+def fit_rows(theta, V, status):
     """Linear law per geometry: (V0, dV, rms, max) arrays over the rows of V."""
     res = np.full((4, V.shape[0]), np.nan)
     for m in range(V.shape[0]):
@@ -543,7 +543,7 @@ def fit_errors(ds, config, points, values):
     return (V0 + pts[3] / 90.0 * dV) / np.asarray(values) - 1.0
 
 
-def _error_summary(err):
+def error_summary(err):
     e = np.abs(err[np.isfinite(err)])
     return {"median": float(np.median(e)) if e.size else np.nan,
             "max": float(np.max(e)) if e.size else np.nan, "n": int(e.size)}
@@ -588,7 +588,7 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
     nt, ng = len(theta), len(gaps)
     dims4, dims3 = ("d12", "d13", "d23", "theta"), ("d12", "d13", "d23")
     ds = xr.Dataset(
-        coords={n: (n, gaps if n != "theta" else theta, _ATTRS[n]) for n in dims4},
+        coords={n: (n, gaps if n != "theta" else theta, COALESCENCE_ATTRS[n]) for n in dims4},
         attrs={"title": "capbridge coalescence volumes of three equal spheres (exact "
                         "Young-Laplace doublets, equal volume shares, no gravity)",
                "normalising_radius": "r, the radius of the three equal spheres",
@@ -626,20 +626,20 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
         V = res["V_coal"][:nn].reshape(-1, nt)
         st = res["status"][:nn].reshape(-1, nt).astype(np.int8)
         crit = res["criterion"][:nn].reshape(-1, nt).astype(np.int8)
-        ds[f"V_coal_{c}"] = (dims4, V[cube], _ATTRS[f"V_coal_{c}"])
+        ds[f"V_coal_{c}"] = (dims4, V[cube], COALESCENCE_ATTRS[f"V_coal_{c}"])
         ds[f"criterion_{c}"] = (dims4, crit[cube], _criterion_attrs(c))
         ds[f"status_{c}"] = (dims4, st[cube], cf_flag_attributes() | {
             "long_name": f"status of V_coal_{c} (not_converged: no coalescence found)"})
-        for name, row in zip(("V0", "dV", "fit_rms", "fit_max"), _fit_rows(theta, V, st)):
+        for name, row in zip(("V0", "dV", "fit_rms", "fit_max"), fit_rows(theta, V, st)):
             ds[f"{name}_{c}"] = (dims3, row[cube], {
-                "units": "1", "long_name": f"{_ATTRS[name]['long_name']} ({c})"})
+                "units": "1", "long_name": f"{COALESCENCE_ATTRS[name]['long_name']} ({c})"})
         hd = f"heldout_{c}"
         ds.coords[hd] = (hd, np.arange(held.shape[1]),
                          {"units": "1", "long_name": f"index of the held-out point ({c})"})
         for a, name in enumerate(dims4):
-            ds[f"{hd}_{name}"] = (hd, held[a], {"units": _ATTRS[name]["units"],
+            ds[f"{hd}_{name}"] = (hd, held[a], {"units": COALESCENCE_ATTRS[name]["units"],
                                                 "long_name": f"held-out point ({c}): "
-                                                f"{_ATTRS[name]['long_name']}"})
+                                                f"{COALESCENCE_ATTRS[name]['long_name']}"})
         Vh = res["V_coal"][nn:]
         ds[f"{hd}_V_coal"] = (hd, Vh, {"units": "1",
                                        "long_name": f"exact V_coal ({c}) at the held-out point"})
@@ -652,13 +652,13 @@ def build_coalescence_table(grid=None, checkpoint_dir=None, n_jobs=None, schedul
                 ds[f"{hd}_error_{method}"] = (hd, e, {
                     "units": "1", "long_name": f"relative error of {method} interpolation "
                     f"of V_coal_{c} at the held-out point"})
-                errs[method] = _error_summary(e)
+                errs[method] = error_summary(e)
         if ng >= 2:
             e = fit_errors(ds, c, held, Vh)
             ds[f"{hd}_error_fit"] = (hd, e, {
                 "units": "1", "long_name": "relative error of the linear law (V0, dV "
                 f"multilinear in the gaps) for V_coal_{c} at the held-out point"})
-            errs["linear_law"] = _error_summary(e)
+            errs["linear_law"] = error_summary(e)
         ds.attrs[f"interpolation_error_{c}"] = _json(errs)
         cpu = res["cpu"][res["cpu"] > 0]
         ds.attrs[f"cpu_seconds_per_point_{c}"] = _json({

@@ -256,8 +256,10 @@ def save_doublet_table(ds: xr.Dataset, path, command=None, overwrite=False):
 def validate_doublet_table(ds: xr.Dataset, source="table") -> xr.Dataset:
     """Refuse a doublet table whose axes, units or values are not physical.
 
-    Beyond :func:`capbridge.tables.netcdf_io.validate_table` (increasing axes, units,
-    checksum): the doublet units (:data:`UNITS`); ratio >= 1, theta in [0, 180) deg,
+    Beyond :func:`capbridge.tables.netcdf_io.validate_table` (checksums, increasing
+    axes, units; for a file also :func:`capbridge.tables.checks.check_doublet`,
+    which repeats the bounds below and adds the gravity response's invariants): the
+    doublet units (:data:`UNITS`); ratio >= 1, theta in [0, 180) deg,
     V* > 0, s in [0, 1]; where converged, filling angles in [0, 180] deg, neck radius
     and rupture distance > 0, and |F*| <= 2 ratio/(1 + ratio), the largest force two
     spheres can exert through a bridge (contact, V* -> 0, theta = 0: Derjaguin's

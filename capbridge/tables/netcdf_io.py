@@ -6,9 +6,22 @@ Every table is an :class:`xarray.Dataset` whose variables and coordinates all ca
 ``capbridge_version``, ``capbridge_command`` (absolute local paths reduced to file
 names), ``solver_settings`` (a JSON string; :func:`table_solver_settings` decodes it),
 ``git_commit`` (of the capbridge source, ``+dirty`` if modified), ``library_versions``
-(JSON), ``grid`` (JSON: the values of every dimension coordinate) and
-``data_sha256``, a checksum of every variable's values that :func:`read_table`
-verifies: a table edited by hand or by another tool is refused, not used.
+(JSON), ``grid`` (JSON: the values of every dimension coordinate), ``data_sha256`` (a checksum
+of every variable's values, as older capbridge versions wrote it) and ``table_sha256``,
+a checksum of everything that gives the numbers their meaning: every variable's name,
+dimensions, values and attributes (units, long names, flags) and every global
+attribute but itself (error model, grid, provenance).  :func:`read_table` verifies
+both; a table edited by hand or by another tool is refused, not used.  ``table_sha256``
+is computed from the file as read back (so that the netCDF round trip of attribute
+types cannot break it) and added to the temporary file before the atomic replace.
+
+A file without ``table_sha256`` (older capbridge, or a checksum deleted) is
+*unverified*: :func:`read_table` refuses it unless the caller allows it explicitly
+(``allow_unverified=True``, or inside :func:`allow_unverified_tables`; the command line's
+``--allow-unverified-table``), and then logs one warning line.  Whatever the checksum,
+a table read from a file also goes through the checks of what its generator guarantees
+(:mod:`capbridge.tables.checks`: units, physical bounds, sum rules, symmetry);
+a Dataset built or edited in memory is the caller's (:func:`validate_table`).
 
 Coordinates carry no ``_FillValue`` (CF: coordinates have no missing values), and
 :func:`read_table` checks that they are finite and strictly increasing and that every
@@ -24,8 +37,11 @@ Floating-point variables are zlib-compressed (level 4).
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import datetime as _dt
 import hashlib
+import logging
 import json
 import os
 import shlex
@@ -44,11 +60,34 @@ from capbridge.validation import CapbridgeInputError
 __all__ = ["write_table", "read_table", "table_solver_settings", "capbridge_version",
            "is_status_variable", "REQUIRED_ATTRS", "CONVENTIONS", "TableError",
            "TableExistsError", "check_table_target", "data_checksum", "table_grid",
-           "validate_table", "portable_command"]
+           "validate_table", "portable_command", "table_checksum", "TABLE_CHECKSUM",
+           "allow_unverified_tables", "unverified_allowed", "checksum_state"]
 
 CONVENTIONS = "CF-1.8"
 REQUIRED_ATTRS = ("units", "long_name")
 COMPLEVEL = 4
+#: the global attribute holding :func:`table_checksum`
+TABLE_CHECKSUM = "table_sha256"
+#: the values-only checksum of older capbridge versions (still written and verified)
+DATA_CHECKSUM = "data_sha256"
+#: what turns the refusal of an unverified table off, named in messages
+ALLOW_HINT = ("--allow-unverified-table on the command line, allow_unverified=True in "
+              "Python")
+
+log = logging.getLogger("capbridge.tables")
+_ALLOW_UNVERIFIED = contextvars.ContextVar("capbridge_allow_unverified", default=False)
+_WARNED = set()
+
+
+# The checks of what each table's generator guarantees (capbridge.tables.checks, which
+# needs the builders' schemas, which need this module) register here when
+# capbridge.tables is imported: reading a file runs them without importing them.
+_TABLE_CHECKS: list = []
+
+
+def register_table_checks(check_table, table_kind):
+    """Install the per-kind checks that :func:`read_table` runs on every file."""
+    _TABLE_CHECKS[:] = [check_table, table_kind]
 
 
 class TableError(CapbridgeInputError):
@@ -209,6 +248,83 @@ def data_checksum(ds: xr.Dataset) -> str:
     return h.hexdigest()
 
 
+def _canonical_attr(value):
+    """An attribute value in a JSON form that does not depend on how it was stored."""
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", "replace")
+    if isinstance(value, str):
+        return ["s", value]
+    if isinstance(value, (np.ndarray, list, tuple)):
+        a = np.asarray(value)
+        if a.dtype.kind in "fiub":
+            return ["a", a.dtype.kind, [_canonical_attr(x)[1] for x in a.ravel().tolist()]]
+        return ["a", "s", [str(x) for x in a.ravel().tolist()]]
+    if isinstance(value, (bool, np.bool_)):
+        return ["i", int(value)]
+    if isinstance(value, (int, np.integer)):
+        return ["i", int(value)]
+    if isinstance(value, (float, np.floating)):
+        return ["f", float(value).hex()]
+    return ["r", repr(value)]
+
+
+def _attrs_text(attrs: Mapping) -> bytes:
+    items = sorted((str(k), _canonical_attr(v)) for k, v in attrs.items())
+    return json.dumps(items, separators=(",", ":")).encode()
+
+
+def table_checksum(ds: xr.Dataset) -> str:
+    """SHA-256 of the table as it means something: every variable and coordinate (name,
+    dimensions, values, attributes) and every global attribute except ``table_sha256``
+    itself.  A change of units, of the stored error model, of the grid or of the
+    provenance changes it as a change of values does."""
+    h = hashlib.sha256(b"capbridge table_sha256 v1\0")
+    for name in sorted(map(str, ds.variables)):
+        var = ds.variables[name]
+        a = np.asarray(var.values)
+        head = [name, [str(d) for d in var.dims], list(a.shape)]
+        if a.dtype.kind in "fiub":
+            c = _canonical(a)
+            h.update(json.dumps(head + [c.dtype.str]).encode() + b"\0")
+            h.update(c.tobytes())
+        else:
+            text = [str(x) for x in a.ravel().tolist()]
+            h.update(json.dumps(head + ["text", text]).encode() + b"\0")
+        h.update(_attrs_text(var.attrs) + b"\0")
+    h.update(b"global\0" + _attrs_text({k: v for k, v in ds.attrs.items()
+                                        if k != TABLE_CHECKSUM}))
+    return h.hexdigest()
+
+
+@contextlib.contextmanager
+def allow_unverified_tables(allow: bool = True):
+    """Within this block, tables without ``table_sha256`` are used (with one warning
+    line each) where a loader is not told otherwise: what ``--allow-unverified-table``
+    does for a whole command, e.g. around code that loads tables indirectly (the YADE
+    engine)."""
+    token = _ALLOW_UNVERIFIED.set(bool(allow))
+    try:
+        yield
+    finally:
+        _ALLOW_UNVERIFIED.reset(token)
+
+
+def unverified_allowed(allow_unverified: bool | None = None) -> bool:
+    """``allow_unverified`` if given, else whether :func:`allow_unverified_tables` is on."""
+    return _ALLOW_UNVERIFIED.get() if allow_unverified is None else bool(allow_unverified)
+
+
+def checksum_state(ds: xr.Dataset) -> str:
+    """How a table read by :func:`read_table` was verified (for ``capbridge info``)."""
+    if TABLE_CHECKSUM in ds.attrs:
+        return "verified (values and attributes, table_sha256)"
+    if DATA_CHECKSUM in ds.attrs:
+        return ("NOT verified: values only (data_sha256 of older capbridge versions), "
+                "units, error model and provenance unchecked; used because unverified "
+                "tables were allowed")
+    return "NOT verified: no checksum; used because unverified tables were allowed"
+
+
 def table_grid(ds: xr.Dataset) -> dict:
     """The dimension coordinates of a table as ``{name: [values]}``."""
     return {str(d): np.asarray(ds[d].values).tolist() for d in ds.dims if d in ds.coords}
@@ -359,7 +475,8 @@ def write_table(ds: xr.Dataset, path, *, command: str, solver_settings: Mapping,
     attrs["grid"] = json.dumps(grid)
     for key, value in dict(extra_attrs or {}).items():
         attrs[str(key)] = value
-    attrs["data_sha256"] = data_checksum(ds)
+    attrs.pop(TABLE_CHECKSUM, None)            # added below, from the written file
+    attrs[DATA_CHECKSUM] = data_checksum(ds)
     ds.attrs = {k: _attr_value(v) for k, v in attrs.items()}
 
     encoding = {}
@@ -377,7 +494,27 @@ def write_table(ds: xr.Dataset, path, *, command: str, solver_settings: Mapping,
 
     with atomic_target(path, suffix=".nc") as tmp:
         ds.to_netcdf(tmp, mode="w", format="NETCDF4", engine="netcdf4", encoding=encoding)
+        _add_table_checksum(tmp)
     return path
+
+
+def _read_back(path) -> xr.Dataset:
+    with xr.open_dataset(path, engine="netcdf4", cache=False) as back:
+        return back.load()
+
+
+def _add_table_checksum(tmp):
+    """Compute :func:`table_checksum` from the file as read back and add it as a global
+    attribute (nothing else in the file changes); checked once more after adding."""
+    import netCDF4
+
+    digest = table_checksum(_read_back(tmp))
+    with netCDF4.Dataset(tmp, "r+") as nc:
+        nc.setncattr(TABLE_CHECKSUM, digest)
+    again = _read_back(tmp)
+    if str(again.attrs.get(TABLE_CHECKSUM)) != digest or table_checksum(again) != digest:
+        raise RuntimeError(f"{tmp}: the table checksum does not survive adding it to the "
+                           "file (a bug: report it)")
 
 
 def _increasing(values) -> bool:
@@ -389,7 +526,7 @@ def _increasing(values) -> bool:
 
 
 def read_table(path, *, expect_units: Mapping[str, str] | None = None,
-               verify: bool = True) -> xr.Dataset:
+               verify: bool = True, allow_unverified: bool | None = None) -> xr.Dataset:
     """Open a capbridge table, load it into memory, close the file and validate it.
 
     Parameters
@@ -399,8 +536,14 @@ def read_table(path, *, expect_units: Mapping[str, str] | None = None,
         Units the caller relies on (e.g. ``{"theta": "degree"}``); see
         :func:`validate_table`.
     verify : bool
-        Check coordinates, units and the data checksum (default).  ``False`` only
+        Check the checksums, coordinates, units, the ``grid`` attribute and what the
+        table's generator guarantees (default; :func:`validate_table`).  ``False`` only
         identifies the file (used to compare grids before replacing it).
+    allow_unverified : bool, optional
+        Use a table without ``table_sha256`` (older capbridge, or a checksum deleted):
+        one warning line instead of a refusal.  Default: refused, unless inside
+        :func:`allow_unverified_tables` (``--allow-unverified-table``).  A checksum
+        that is present and wrong is refused either way.
 
     Raises
     ------
@@ -408,8 +551,8 @@ def read_table(path, *, expect_units: Mapping[str, str] | None = None,
         No such file.
     TableError
         (a ``ValueError``) naming the file when it is unreadable, truncated, not CF
-        (``Conventions``), not written by capbridge (``capbridge_command``), or fails
-        :func:`validate_table`.
+        (``Conventions``), not written by capbridge (``capbridge_command``), fails
+        :func:`validate_table`, or is unverified and not allowed.
     """
     path = Path(path)
     if not path.exists():
@@ -431,21 +574,43 @@ def read_table(path, *, expect_units: Mapping[str, str] | None = None,
         raise TableError(f"{path} is not a capbridge table: no 'capbridge_command' "
                          f"global attribute (write tables with write_table)")
     if verify:
-        validate_table(ds, path, expect_units)
+        validate_table(ds, path, expect_units, file=True,
+                       allow_unverified=allow_unverified)
     return ds
 
 
 def validate_table(ds: xr.Dataset, source="table",
-                   expect_units: Mapping[str, str] | None = None) -> xr.Dataset:
+                   expect_units: Mapping[str, str] | None = None, *, file: bool = False,
+                   allow_unverified: bool | None = None) -> xr.Dataset:
     """Refuse a table whose structure or data cannot be trusted.
 
-    Checks: dimension coordinates finite and strictly increasing; ``units`` on every
+    Checks, in this order: the checksums present (``table_sha256`` over values and
+    attributes, ``data_sha256`` over values; a mismatch means an edited or damaged
+    file); dimension coordinates finite and strictly increasing; ``units`` on every
     coordinate and variable; the units in ``expect_units`` (name -> units) where the
-    variable exists; the ``data_sha256`` checksum when the file has one (tables
-    written before it was introduced have none and are checked otherwise only).
+    variable exists.  For a file (``file=True``, as :func:`read_table` does): what the
+    table's generator guarantees (:func:`capbridge.tables.checks.check_table`:
+    the units of every variable the code reads, physical bounds, sum rules, symmetry),
+    the ``grid`` attribute against the coordinates, and a table without
+    ``table_sha256`` is refused unless ``allow_unverified`` (:func:`unverified_allowed`),
+    then logged in one warning line.  A Dataset built or edited in memory
+    (``file=False``: the surrogates' ``fit`` of a Dataset, the generators' own tables
+    before they are written) is the caller's: it needs no checksum (one it carries is
+    verified) and gets the structural checks only; it is checked in full once written
+    and read back.
 
     Raises :class:`TableError` naming ``source`` and the first problem.
     """
+    stored = ds.attrs.get(TABLE_CHECKSUM)
+    if stored is not None and str(stored) != table_checksum(ds):
+        raise TableError(f"{source}: table checksum mismatch (table_sha256): its values or "
+                         f"attributes (units, error model, grid, provenance) were changed "
+                         f"after the table was written (edited or damaged); regenerate it, "
+                         f"or use the original file")
+    stored = ds.attrs.get(DATA_CHECKSUM)
+    if stored is not None and str(stored) != data_checksum(ds):
+        raise TableError(f"{source}: data checksum mismatch: the values were changed after "
+                         f"the table was written (edited or damaged); regenerate it")
     for d in ds.dims:
         if d in ds.coords and not _increasing(ds[d].values):
             v = np.asarray(ds[d].values)
@@ -461,11 +626,60 @@ def validate_table(ds: xr.Dataset, source="table",
             raise TableError(f"{source}: {name!r} has units {ds[name].attrs.get('units')!r}, "
                              f"expected {units!r}; capbridge tables are dimensionless by "
                              f"R1 and gamma with angles in degrees")
-    stored = ds.attrs.get("data_sha256")
-    if stored is not None and str(stored) != data_checksum(ds):
-        raise TableError(f"{source}: data checksum mismatch: the values were changed after "
-                         f"the table was written (edited or damaged); regenerate it")
+    if file and _TABLE_CHECKS:
+        try:
+            _TABLE_CHECKS[0](ds, source)
+        except TableError:
+            raise
+        except (KeyError, IndexError, ValueError, TypeError) as exc:
+            # a layout no generator writes (odd dimensions, types): damaged, not a bug
+            raise TableError(f"{source}: cannot be checked ({type(exc).__name__}: "
+                             f"{str(exc).splitlines()[0] if str(exc) else ''}); the table "
+                             f"is damaged or was not made by capbridge") from None
+        _check_grid_attribute(ds, source)
+        if TABLE_CHECKSUM not in ds.attrs:
+            _unverified(ds, source, allow_unverified)
     return ds
+
+
+def _check_grid_attribute(ds, source):
+    """The ``grid`` attribute (JSON, written by :func:`write_table` from the
+    coordinates) must give every dimension it names the table's coordinate values.
+    A ``grid`` that is not such a mapping (a caller's own ``extra_attrs``) is not
+    compared."""
+    try:
+        grid = json.loads(str(ds.attrs.get("grid")))
+    except ValueError:
+        return
+    if not isinstance(grid, dict):
+        return
+    axes = table_grid(ds)
+    named = {k: v for k, v in grid.items() if k in axes}
+    try:
+        same = _same_grid(named, {k: axes[k] for k in named})
+    except (TypeError, ValueError):
+        same = False
+    if not same:
+        raise TableError(f"{source}: global attribute 'grid' does not match the table's "
+                         f"coordinates ({_grid_summary(axes)} values): edited or damaged; "
+                         f"regenerate it, or use the original file")
+
+
+def _unverified(ds, source, allow_unverified):
+    table_kind = _TABLE_CHECKS[1] if _TABLE_CHECKS else (lambda ds: None)
+    what = ("only the values-only checksum data_sha256 of older capbridge versions"
+            if DATA_CHECKSUM in ds.attrs else "no checksum at all")
+    if not unverified_allowed(allow_unverified):
+        raise TableError(
+            f"{source}: unverified table: no table_sha256 ({what}), so its units, error "
+            f"model and provenance cannot be checked; regenerate it with this capbridge "
+            f"(`capbridge generate {table_kind(ds) or '...'}`), or use it anyway with "
+            f"{ALLOW_HINT}")
+    key = str(source)
+    if key not in _WARNED:
+        _WARNED.add(key)
+        log.warning("%s: unverified table used (no table_sha256: %s; allowed explicitly); "
+                    "its units, error model and provenance are not checked", source, what)
 
 
 def table_solver_settings(ds: xr.Dataset) -> dict:
