@@ -14,10 +14,8 @@ from __future__ import annotations
 import json
 import logging
 import shutil
-from pathlib import Path
 
 import netCDF4
-import numpy as np
 import pytest
 
 from capbridge.cli import (DEFAULT_COALESCENCE_TABLE, DEFAULT_TABLE, DEFAULT_TRIPLET_TABLE,

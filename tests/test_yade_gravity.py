@@ -384,8 +384,12 @@ def test_yade_triplet_cluster_carries_its_weight(tmp_path):
 
     from capbridge.dem.triplet_clusters import load_surrogate
 
+    from capbridge.generator.netcdf_io import write_table
+
     table = tmp_path / "triplet_gravity_synthetic.nc"
-    _synthetic_triplet_table().to_netcdf(table)
+    # written as capbridge writes tables (with the checksum a table file needs)
+    write_table(_synthetic_triplet_table(), table, command="test synthetic gravity",
+                solver_settings={})
     sur = load_surrogate(table)                      # as the engine reads it
     R, gamma = 1e-3, 0.073
     lo, hi = sur.gaps_[0], sur.gaps_[-1]
