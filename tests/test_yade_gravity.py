@@ -384,7 +384,7 @@ def test_yade_triplet_cluster_carries_its_weight(tmp_path):
 
     from capbridge.dem.triplet_clusters import load_surrogate
 
-    from capbridge.generator.netcdf_io import write_table
+    from capbridge.tables.netcdf_io import write_table
 
     table = tmp_path / "triplet_gravity_synthetic.nc"
     # written as capbridge writes tables (with the checksum a table file needs)
