@@ -834,6 +834,13 @@ _REFINE_HINT = ("Surface Evolver results need level 2 at least: the error estima
                 "compares the forces of levels 1 and 2")
 
 
+def _add_triplet_gaps(parser):
+    """The three gaps of a triplet (--d12, --d13, --d23), as every triplet command takes them."""
+    for i, j in ((1, 2), (1, 3), (2, 3)):
+        parser.add_argument(f"--d{i}{j}", type=float, required=True,
+                            help=f"gap between grains {i} and {j}, d/r")
+
+
 def build_parser():
     p = _Parser(prog="capbridge", description=__doc__,
                 epilog="--debug (anywhere): show the traceback of an error; "
@@ -867,9 +874,7 @@ def build_parser():
     sd.set_defaults(func=cmd_solve_doublet)
     st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
                           "liquid body on three equal spheres (JSON out)")
-    st.add_argument("--d12", type=float, required=True, help="gap between grains 1 and 2, d/r")
-    st.add_argument("--d13", type=float, required=True, help="gap between grains 1 and 3, d/r")
-    st.add_argument("--d23", type=float, required=True, help="gap between grains 2 and 3, d/r")
+    _add_triplet_gaps(st)
     st.add_argument("--V", type=float, required=True, help="total volume V* = V/r^3")
     st.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
     st.add_argument("--max-refine", type=_number(*EVOLVER_REFINE, integer=True,
@@ -1005,9 +1010,7 @@ def build_parser():
 
     co = sub.add_parser("coalescence", help="volume at which separate bridges in a triplet of "
                         "equal spheres coalesce (exact shapes; JSON out)")
-    co.add_argument("--d12", type=float, required=True, help="gap between grains 1 and 2, d/r")
-    co.add_argument("--d13", type=float, required=True, help="gap between grains 1 and 3, d/r")
-    co.add_argument("--d23", type=float, required=True, help="gap between grains 2 and 3, d/r")
+    _add_triplet_gaps(co)
     co.add_argument("--theta", type=float, required=True, help="contact angle [deg], in [0, 90)")
     co.add_argument("--theta2", type=float, default=None, help="contact angle on grain 2 [deg]")
     co.add_argument("--theta3", type=float, default=None, help="contact angle on grain 3 [deg]")
