@@ -100,8 +100,9 @@ from capbridge.yade import engine_options, persistence, state_io
 from capbridge.yade.config import ENGINE_PARAMETERS, EngineConfig, is_group
 from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem.coalescence_detect import find_coalescence
-from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY, LiquidGravity,
-                                                 newton_gravity)
+# GRAVITY_MODES: public here before 0.2 (tests/test_public_surface.py)
+from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY, GRAVITY_MODES,  # noqa: F401
+                                          LiquidGravity, newton_gravity)
 from capbridge.validation import CapbridgeInputError
 from capbridge.yade.persistence import CapbridgeStateError, install_save_hooks
 from capbridge.yade.registry import ENGINES, get_engine, set_factory
