@@ -156,7 +156,8 @@ def test_mixing_a_group_and_its_flat_keywords_is_refused():
 
 def test_engine_from_groups_equals_engine_from_flat_keywords():
     """Outside YADE (no scene): the same parameters (what a restart file holds), the same
-    values in the engine; groups given to the flat constructor are refused."""
+    values in the engine, whether the groups go to the constructor or to configure; a
+    group in a flat keyword's place is refused."""
     from capbridge.yade.engine import CapbridgeEngine
 
     flat = dict(theta=20.0, gamma=0.073, water_content=0.01, film_fraction=0.4,
@@ -176,10 +177,42 @@ def test_engine_from_groups_equals_engine_from_flat_keywords():
     for k in ("gamma", "amount", "liquid_density", "refresh_every", "force_tolerance",
               "coalescence_every", "skin", "holds_forces"):
         assert getattr(a, k) == getattr(b, k), k
-    with pytest.raises(CapbridgeInputError, match=r"^coalescence=Coalescence\(\.\.\.\) is a "
-                                                  r"keyword group: give groups to "
-                                                  r"CapbridgeEngine\.configure"):
-        CapbridgeEngine(water_content=0.01, coalescence=C.Coalescence(), label="cfg_c")
+    c = CapbridgeEngine(
+        theta=20.0, gamma=0.073, liquid=C.WaterContent(0.01, film_fraction=0.4),
+        formation=C.Formation(gap=1e-5, initial_wet_gap=5e-5),
+        coalescence=C.Coalescence(every=50), gravity=C.GravityCorrection("on"),
+        speed=C.Speed(force_tolerance=1e-3, skin=2e-4), label="cfg_c")
+    assert dict(c._params, label=None) == pa and list(c._params) == list(pa)
+    assert c._opts == dict(b._opts, label="cfg_c")
+    assert c.config == dataclasses.replace(b.config, label="cfg_c")
+    with pytest.raises(CapbridgeInputError, match=r"^water_content=WaterContent\(\.\.\.\) is "
+                                                  r"a keyword group: give it as "
+                                                  r"liquid=WaterContent"):
+        CapbridgeEngine(water_content=C.WaterContent(0.01), label="cfg_d")
+
+
+def test_the_constructor_refuses_a_flat_keyword_set_beside_its_group():
+    """The constructor's flat keywords have their defaults in its signature: one set to
+    another value beside its own group is refused, as by configure; one at its default
+    cannot be told from one left out and gives way to the group."""
+    from capbridge.yade.engine import CapbridgeEngine
+
+    with pytest.raises(CapbridgeInputError, match=r"^water_content=0\.02 given with "
+                                                  r"liquid=WaterContent"):
+        CapbridgeEngine(liquid=C.WaterContent(0.01), water_content=0.02, label="mix_a")
+    with pytest.raises(CapbridgeInputError, match=r"^coalescence_every=50 given with "
+                                                  r"coalescence=Coalescence"):
+        CapbridgeEngine(liquid=C.WaterContent(0.01), coalescence=C.Coalescence(),
+                        coalescence_every=50, label="mix_b")
+    with pytest.raises(CapbridgeInputError, match=r"^refresh_every=1\.0 given with "
+                                                  r"speed=Speed"):
+        CapbridgeEngine(liquid=C.WaterContent(0.01), speed=C.Speed(), refresh_every=1.0,
+                        label="mix_c")
+    with pytest.raises(CapbridgeInputError, match=r"^coalescence=None is not a boolean"):
+        CapbridgeEngine(liquid=C.WaterContent(0.01), coalescence=None, label="mix_d")
+    eng = CapbridgeEngine(liquid=C.WaterContent(0.01), speed=C.Speed(skin=1e-3), skin=None,
+                          coalescence=False, label="mix_e")
+    assert eng.skin == 1e-3 and eng.config.coalescence.enabled is False
 
 
 # --------------------------------------------------------------------------------------

@@ -355,11 +355,17 @@ def test_a_model_without_grains_idles(sur, rule):
 
 def test_every_keyword_has_its_rule_and_its_row_in_the_docs():
     """The constructor's keywords, ENGINE_PARAMETERS, check_options and OPTION_RULES
-    name the same keywords with the same defaults; the docs' table shows each rule."""
+    name the same keywords with the same defaults; the docs' table shows each rule.
+    Beside the 28 flat keywords the constructor takes the keyword groups (keyword-only,
+    default None; ``coalescence`` is both the flat keyword and the group's slot)."""
     from capbridge.yade.engine import ENGINE_PARAMETERS, CapbridgeEngine
     from capbridge.yade.engine_options import OPTION_RULES, check_options
 
     ctor = {k: p.default for k, p in inspect.signature(CapbridgeEngine).parameters.items()}
+    groups = {k: ctor.pop(k) for k in ("liquid", "formation", "bodies", "gravity", "speed")}
+    assert groups == dict.fromkeys(groups)
+    assert all(inspect.signature(CapbridgeEngine).parameters[k].kind
+               is inspect.Parameter.KEYWORD_ONLY for k in groups)
     pure = {k: p.default for k, p in inspect.signature(check_options).parameters.items()}
     assert ctor == pure
     assert set(ctor) == set(ENGINE_PARAMETERS) == set(OPTION_RULES) and len(ctor) == 28

@@ -3,9 +3,9 @@
 The engine's 28 keywords, grouped by what they decide::
 
     from capbridge.yade.config import WaterContent, Coalescence, Speed
-    cap = CapbridgeEngine.configure(theta=20, gamma=0.073, liquid=WaterContent(0.01),
-                                    coalescence=Coalescence(every=100),
-                                    speed=Speed(refresh_every=10))
+    cap = CapbridgeEngine(theta=20, gamma=0.073, liquid=WaterContent(0.01),
+                          coalescence=Coalescence(every=100),
+                          speed=Speed(refresh_every=10))
 
 =========================  ==========================================================
 group                      keywords it replaces
@@ -39,11 +39,13 @@ is 10).  :class:`EngineConfig` holds the groups and checks what joins two of the
 (``initial_pairs`` and ``walls`` against ``ids``).  What needs a file or the scene (the
 doublet and triplet tables, the spheres) is checked when the engine is made.
 
-The flat keywords (``CapbridgeEngine(theta=..., water_content=..., ...)``) are kept:
+The flat keywords (``CapbridgeEngine(theta=..., water_content=..., ...)``) are kept, the
+shim for scenes written before the groups and for restart files:
 :meth:`EngineConfig.from_flat` maps them onto the groups, with the same defaults and
 messages, and :meth:`EngineConfig.flat` maps back (what a saved scene stores in
-``O.tags``).  :meth:`EngineConfig.build` takes groups and the flat keywords of the
-groups not given; a flat keyword beside its own group is an error.
+``O.tags``, whichever way the engine was made).  :meth:`EngineConfig.from_keywords`
+takes groups and the flat keywords of the groups not given (the engine's constructor
+and :meth:`EngineConfig.build`); a flat keyword beside its own group is an error.
 
 :func:`render_option_table` writes the option table of ``docs/yade_plugin.md`` from
 :data:`ENGINE_PARAMETERS`, :data:`GROUP_FIELDS` and
@@ -61,7 +63,7 @@ from capbridge.yade import engine_options as eo
 __all__ = ["BridgeVolume", "BridgeVolumeStar", "LiquidVolume", "WaterContent", "Saturation",
            "LIQUID_GROUPS", "Formation", "Bodies", "Coalescence", "GravityCorrection",
            "Speed", "EngineConfig", "ENGINE_PARAMETERS", "GROUP_FIELDS", "FLAT_DEFAULTS",
-           "render_option_table", "is_group"]
+           "flat_keywords_given", "render_option_table", "is_group"]
 
 #: name -> (default, meaning) of the 28 flat keywords; the option table of
 #: docs/yade_plugin.md is made from this (:func:`render_option_table`).
@@ -422,6 +424,12 @@ class EngineConfig:
             groups[slot] = gcls(**{name: kw[f] for name, f in gcls.flat_names().items()})
         return cls(**groups, **{k: kw[k] for k in TOP_LEVEL})
 
+    def as_keywords(self):
+        """The keywords of :class:`~capbridge.yade.engine.CapbridgeEngine` that make this
+        configuration: the top-level values and the six groups."""
+        return {**{k: getattr(self, k) for k in TOP_LEVEL},
+                **{slot: getattr(self, slot) for slot in GROUPS}}
+
     @classmethod
     def build(cls, theta=0.0, gamma=0.073, *, liquid=None, formation=None, bodies=None,
               coalescence=None, gravity=None, speed=None, **flat):
@@ -434,29 +442,65 @@ class EngineConfig:
         if coalescence is not None and not isinstance(coalescence, _Group):
             flat["coalescence"] = groups.pop("coalescence")
             groups["coalescence"] = None
+        return cls.from_keywords(groups, dict(flat, theta=theta, gamma=gamma))
+
+    @classmethod
+    def from_keywords(cls, groups, flat):
+        """The configuration of ``groups`` (slot -> group, or None where not given) and
+        ``flat`` (flat keyword -> value: the top level and keywords of the groups not
+        given; the others take their defaults).
+
+        Raises
+        ------
+        CapbridgeInputError
+            A flat keyword beside its own group, a group given as a flat keyword's value
+            or in another group's slot, and every check of the groups and the values.
+        TypeError
+            An unknown keyword.
+        """
         unknown = sorted(set(flat) - set(ENGINE_PARAMETERS))
         if unknown:
             raise TypeError(f"unexpected keyword argument(s) {', '.join(unknown)}")
-        for k in flat:
+        for k, v in flat.items():
+            if isinstance(v, _Group):
+                name = type(v).__name__
+                raise CapbridgeInputError(f"{k}={name}(...) is a keyword group: give it as "
+                                          f"{v.slot}={name}(...)")
             slot = FLAT_OWNER[k]
             if slot is not None and groups[slot] is not None:
                 g = groups[slot]
                 raise CapbridgeInputError(
-                    f"{k}={flat[k]!r} given with {slot}={type(g).__name__}(...): give it "
+                    f"{k}={v!r} given with {slot}={type(g).__name__}(...): give it "
                     f"in the group (or the flat keywords only), not both")
         for slot, g in groups.items():
             if g is not None and not isinstance(g, GROUPS[slot]):
                 want = ("one of " + ", ".join(c.__name__ for c in LIQUID_GROUPS)
                         if slot == "liquid" else GROUPS[slot].__name__)
                 raise CapbridgeInputError(f"{slot}={g!r} is not allowed: give {want}(...)")
-        kw = dict(FLAT_DEFAULTS, theta=theta, gamma=gamma)
-        kw.update(flat)
+        kw = dict(FLAT_DEFAULTS, **flat)
         for g in groups.values():
             if g is not None:
                 kw.update(g.flat())
         cfg = cls.from_flat(**kw)
         # the groups given are kept as given (the same values, checked)
         return dataclasses.replace(cfg, **{s: g for s, g in groups.items() if g is not None})
+
+
+def flat_keywords_given(flat):
+    """The flat keywords of ``flat`` (all 28, as the engine's constructor receives them)
+    that a caller set: the top level, and every other keyword whose value is not its
+    default (:data:`FLAT_DEFAULTS`).
+
+    A keyword given at its default cannot be told from one left out (the constructor
+    has the defaults in its signature, the one scenes and restart files rely on), so
+    beside its own group it is not an error: the group's value holds.
+    """
+    def at_default(k, v):
+        d = FLAT_DEFAULTS[k]
+        # same type and equal: 1.0 for refresh_every=1 counts as set (and is checked)
+        return v is d or (d is not None and type(v) is type(d) and v == d)
+
+    return {k: v for k, v in flat.items() if k in TOP_LEVEL or not at_default(k, v)}
 
 
 # ------------------------------------------------------------------------------------

@@ -5,9 +5,10 @@ copy)::
 
     from capbridge.yade.engine import CapbridgeEngine
     from capbridge.yade.config import BridgeVolume, Speed
-    cap = CapbridgeEngine.configure(theta=30.0, gamma=0.073, liquid=BridgeVolume(2e-12),
-                                    speed=Speed(refresh_every=1))
-    # the same engine with the flat keywords (kept, see capbridge.yade.config):
+    cap = CapbridgeEngine(theta=30.0, gamma=0.073, liquid=BridgeVolume(2e-12),
+                          speed=Speed(refresh_every=1))
+    # the same engine with the flat keywords (the shim kept for older scenes and
+    # restart files, see capbridge.yade.config):
     # cap = CapbridgeEngine(theta=30.0, gamma=0.073, bridge_volume=2e-12)
     O.engines = [ForceResetter(),
                  InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
@@ -66,12 +67,13 @@ registered with :meth:`CapbridgeEngine.register_state`) is written into the scen
 ``O.tags`` whenever the scene is saved (``O.save``, ``O.saveTmp``: capbridge wraps them
 when the first engine is made) and read back at the first step after ``O.load`` /
 ``O.loadTmp``, in this process or in a new one (the PyRunner re-creates the engine
-from the saved parameters if no engine of its label exists).  YADE drops every
-permanent force on load; the engine puts its own back (the user's are the user's).
+from the saved parameters, the flat keywords whichever way the engine was made, if no
+engine of its label exists).  YADE drops every permanent force on load; the engine puts
+its own back (the user's are the user's).
 
-Misuse is an error, not a silent zero: every keyword is checked when the engine is made
-(:mod:`capbridge.yade.engine_options`: type, range, which go together, the doublet
-table read then, the grains already in the scene), then the PyRunner outside
+Misuse is an error, not a silent zero: every group and keyword is checked when the
+engine is made (:mod:`capbridge.yade.engine_options`: type, range, which go together,
+the doublet table read then, the grains already in the scene), then the PyRunner outside
 ForceResetter ... NewtonIntegrator, two PyRunners of one label, impossible liquid
 amounts, a non-finite gravity, spheres added while running.  Erased spheres: their
 bridges rupture (liquid onto the surviving grain's film under the conserving rule) and
@@ -97,7 +99,8 @@ import numpy as np
 
 from capbridge.dem import scene_geometry
 from capbridge.yade import engine_options, persistence, state_io
-from capbridge.yade.config import ENGINE_PARAMETERS, EngineConfig, is_group
+from capbridge.yade.config import (ENGINE_PARAMETERS, EngineConfig, flat_keywords_given,
+                                   is_group)
 from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem.coalescence_detect import find_coalescence
 # GRAVITY_MODES: public here before 0.2 (tests/test_public_surface.py)
@@ -154,13 +157,26 @@ def rows_of_ids(O):
 class CapbridgeEngine:
     """Volume-controlled capillary bridges from capbridge's doublet table, in YADE.
 
-    Made from keyword groups with :meth:`configure` (:mod:`capbridge.yade.config`:
-    ``liquid=WaterContent(0.01)``, ``coalescence=Coalescence(...)``, ``speed=Speed(...)``,
-    ...) or, the shim kept for scenes and restart files, from the 28 flat keywords
-    below (mapped onto the same groups, :meth:`EngineConfig.from_flat`; the groups are
-    ``self.config``).  See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for
-    the parameters and :data:`~capbridge.yade.engine_options.OPTION_RULES` for what
-    each allows (checked here, when the engine is made).
+    Made from keyword groups (:mod:`capbridge.yade.config`)::
+
+        CapbridgeEngine(theta=20, gamma=0.073, liquid=WaterContent(0.01),
+                        coalescence=Coalescence(every=100), speed=Speed(refresh_every=10))
+
+    ``liquid`` one of ``BridgeVolume``, ``BridgeVolumeStar``, ``LiquidVolume``,
+    ``WaterContent``, ``Saturation``; ``formation`` a ``Formation``, ``bodies`` a
+    ``Bodies``, ``coalescence`` a ``Coalescence``, ``gravity`` a ``GravityCorrection``,
+    ``speed`` a ``Speed``; beside them the top-level ``liquid_density``, ``table`` and
+    ``label``.  The shim, kept for scenes written before the groups and for restart
+    files (which store them): the 28 flat keywords below, mapped onto the same groups
+    (:meth:`EngineConfig.from_flat`), for the groups not given.  A flat keyword set
+    beside its own group (``speed=Speed(), skin=1e-4``) is an error; one given at its
+    default cannot be told from one left out and gives way to the group
+    (:func:`~capbridge.yade.config.flat_keywords_given`).  Either way the groups are
+    ``self.config``, and the engine, its saved parameters and its forces are the same.
+    See :data:`ENGINE_PARAMETERS` (and ``docs/yade_plugin.md``) for the parameters and
+    :data:`~capbridge.yade.engine_options.OPTION_RULES` for what each allows (checked
+    here, when the engine is made: every error a
+    :class:`~capbridge.validation.CapbridgeInputError`).
     The engine reads the grains (radii, materials, masses) at its first step; create it
     before or after the bodies.  Erased wet spheres leave with their liquid (ledger);
     spheres added later are refused with an error (give ``ids`` or call :meth:`reset`).
@@ -193,19 +209,19 @@ class CapbridgeEngine:
                  force_tolerance=0.0, coalescence=True,
                  coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
-                 triplet_split="table", gravity_correction="auto"):
-        # the 28 flat keywords (the shim of the keyword groups, capbridge.yade.config):
-        # every one checked here, in one place (engine_options), one line naming the
-        # keyword and what is allowed; the groups are kept as self.config
+                 triplet_split="table", gravity_correction="auto", liquid=None,
+                 formation=None, bodies=None, gravity=None, speed=None):
+        # the groups and the flat keywords set beside them, checked once, here, into the
+        # groups (capbridge.yade.config; the checks are engine_options', one line naming
+        # the keyword and what is allowed); ``coalescence`` is the flat keyword (a bool)
+        # or the Coalescence group
         flat = {k: v for k, v in locals().items() if k in ENGINE_PARAMETERS}
-        for k, v in flat.items():
-            if is_group(v):
-                raise CapbridgeInputError(
-                    f"{k}={type(v).__name__}(...) is a keyword group: give groups to "
-                    "CapbridgeEngine.configure(...), or the flat keywords here")
-        self.config = EngineConfig.from_flat(**flat)
-        opts = engine_options.check_options(**flat)
-        self.theta = theta
+        groups = {"liquid": liquid, "formation": formation, "bodies": bodies,
+                  "coalescence": flat.pop("coalescence") if is_group(coalescence) else None,
+                  "gravity": gravity, "speed": speed}
+        self.config = EngineConfig.from_keywords(groups, flat_keywords_given(flat))
+        opts = self.config.checked()
+        self.theta = self.config.theta
         self.gamma = opts["gamma"]
         self.amount = {k: opts[k] for k in engine_options.LIQUID_AMOUNTS}
         self.sample_volume = opts["sample_volume"]
@@ -213,8 +229,8 @@ class CapbridgeEngine:
         # 997 kg/m^3 (water - air at 20 C) for the liquid's weight
         rho = opts["liquid_density"]
         self.liquid_density = 1000.0 if rho is None else rho
-        self.gravity_correction = gravity_correction
-        self.gravity = LiquidGravity(gravity_correction,
+        self.gravity_correction = opts["gravity_correction"]
+        self.gravity = LiquidGravity(self.gravity_correction,
                                      DEFAULT_LIQUID_DENSITY if rho is None else rho, self.gamma)
         self.conserve_liquid = opts["conserve_liquid"]
         self.film_fraction = opts["film_fraction"]
@@ -225,19 +241,19 @@ class CapbridgeEngine:
         self.force_tolerance = opts["force_tolerance"]
         self.coalescence = opts["coalescence"]
         self.coalescence_every = opts["coalescence_every"]
-        self.triplet_split = triplet_split
-        self._init_triplets(opts["triplet_forces"], triplet_table)
-        self.table = table if table is not None else default_table_path()
+        self.triplet_split = opts["triplet_split"]
+        self._init_triplets(opts["triplet_forces"], opts["triplet_table"])
+        self.table = opts["table"] if opts["table"] is not None else default_table_path()
         self.ids_requested = opts["ids"]
         self.skin = opts["skin"]
         self.ratio_step = opts["ratio_step"]
-        self.label = label
+        self.label = opts["label"]
         # walls and periodic cells: capbridge.dem.scene_geometry
         self.walls_requested = opts["walls"]
         # the doublet table read and checked now (not at the first step), and the
         # grains the scene already holds checked against the keywords
         self._opts = opts
-        self._doublet = engine_options.load_doublet_table(table, opts)
+        self._doublet = engine_options.load_doublet_table(opts["table"], opts)
         self._check_scene_now(opts)
         self.walls, self._cell = None, None
         self.model = None
@@ -258,8 +274,9 @@ class CapbridgeEngine:
         self._parts = {}                      # extra state: name -> (get, set)
         self.register_state("clusters", self._clusters_get, self._clusters_set)
         self.register_state("gravity", self.gravity.get_state, self.gravity.set_state)
-        # what a saved scene holds (the flat keywords, as JSON: capbridge.yade.persistence)
-        self._params = persistence.params_json(flat)
+        # what a saved scene holds: the flat keywords, as JSON, whether the engine was
+        # made from groups or from them (capbridge.yade.persistence)
+        self._params = persistence.params_json(self.config.flat())
         old = ENGINES.get(self.label)
         if old is not None and old is not self and old._in_scene():
             raise CapbridgeInputError(
@@ -274,20 +291,10 @@ class CapbridgeEngine:
     @classmethod
     def configure(cls, theta=0.0, gamma=0.073, *, liquid=None, formation=None, bodies=None,
                   coalescence=None, gravity=None, speed=None, **flat):
-        """The engine configured in keyword groups (:mod:`capbridge.yade.config`)::
-
-            CapbridgeEngine.configure(theta=20, gamma=0.073, liquid=WaterContent(0.01),
-                                      coalescence=Coalescence(every=100),
-                                      speed=Speed(refresh_every=10))
-
-        ``liquid`` one of ``BridgeVolume``, ``BridgeVolumeStar``, ``LiquidVolume``,
-        ``WaterContent``, ``Saturation``; ``formation`` a ``Formation``, ``bodies`` a
-        ``Bodies``, ``coalescence`` a ``Coalescence``, ``gravity`` a
-        ``GravityCorrection``, ``speed`` a ``Speed``; the top-level values
-        (``liquid_density``, ``table``, ``label``) and the flat keywords of the groups
-        not given as keywords.  A flat keyword beside its own group is an error.  The
-        engine is the one the flat keywords make (:meth:`EngineConfig.flat`): the same
-        parameters, saved state and forces."""
+        """The engine of keyword groups and the flat keywords of the groups not given, as
+        the constructor takes them, but strict: every flat keyword given counts, so one
+        beside its own group is an error even at its default
+        (:meth:`EngineConfig.build`)."""
         return cls.from_config(EngineConfig.build(
             theta, gamma, liquid=liquid, formation=formation, bodies=bodies,
             coalescence=coalescence, gravity=gravity, speed=speed, **flat))
@@ -297,9 +304,7 @@ class CapbridgeEngine:
         """The engine of an :class:`~capbridge.yade.config.EngineConfig`."""
         if not isinstance(config, EngineConfig):
             raise CapbridgeInputError(f"config={config!r} is not an EngineConfig")
-        eng = cls(**config.flat())
-        eng.config = config
-        return eng
+        return cls(**config.as_keywords())
 
     @classmethod
     def from_scene(cls, label="capbridge"):
