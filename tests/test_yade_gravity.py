@@ -432,7 +432,6 @@ def test_doublet_response_from_a_table_that_has_it():
     surrogate's own F1, F2 with gravity minus the zero-gravity attraction (predict_vectors
     in the pair's frame), and without the response they are the w = 1/2, c = 0 ones."""
     import importlib.util
-    from types import SimpleNamespace
 
     from capbridge.dem.bridges import BridgeModel, LiquidRule
     from capbridge.dem.liquid_gravity import LiquidGravity
@@ -455,12 +454,9 @@ def test_doublet_response_from_a_table_that_has_it():
                         LiquidRule(bridge_volume_star=vstar), with_beta=False)
         m.initialise(pos, pairs=[(0, 1)])
         geom = m.update(pos, form=False)
-        eng = SimpleNamespace(model=m, label="t", triplet_forces=False, walls=None,
-                              holds_forces=False, force_tolerance=0.0,
-                              _say=lambda *a: None)
         lg = LiquidGravity("on", drho, gamma)
-        lg.decide(eng, g)
-        f, _ = lg.grain_forces(eng, geom)
+        lg.decide(m, g)
+        f, _ = lg.grain_forces(m, geom)
         return f, geom, lg
 
     f, geom, lg = parts(sur)

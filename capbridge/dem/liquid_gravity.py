@@ -300,9 +300,23 @@ class LiquidGravity:
             rel.append(float(relative_correction(bo, v[K], fmin).max()))
         return max(rel)
 
-    def decide(self, eng, g, why="start-up"):
-        """Decide for the scene at gravity ``g``; returns the one line to print."""
-        model = eng.model
+    def decide(self, model, g, why="start-up", *, triplet_table=None, walls=False):
+        """Decide for the scene at gravity ``g``; returns the line to print.
+
+        Parameters
+        ----------
+        model : BridgeModel
+            The scene's bridges and grains.
+        g : (3,) gravity vector [m/s^2].
+        why : str
+            What made the decision (in the line).
+        triplet_table : path or None
+            The triplet table when coalesced triplets get its forces
+            (``triplet_forces=True``), else None: with a gravity response there, the
+            liquid clusters get it (:meth:`cluster_gravity`).
+        walls : bool
+            True when the scene has wall bridges (the line says they carry no gravity).
+        """
         self.g = np.array(g, float)
         gn = float(np.linalg.norm(self.g))
         if self.eps is None:
@@ -334,29 +348,37 @@ class LiquidGravity:
             "(equal angles; w = u = 1/2, c = 0 for mixed angles)" if self.doublet_response
             else "; w = u = 1/2, c = 0 (the doublet table has no gravity response)")
         self.clusters_on = False
-        if self.applied and getattr(eng, "triplet_forces", False):
-            self.clusters_on = triplet_table_has_gravity(eng.triplet_table)
+        if self.applied and triplet_table is not None:
+            self.clusters_on = triplet_table_has_gravity(triplet_table)
             extra += ("; liquid clusters of coalesced triplets get the triplet table's "
                       "gravity response" if self.clusters_on else
                       "; liquid clusters of coalesced triplets keep their zero-gravity "
                       "forces (the triplet table has no gravity response)")
-        walls = "; wall bridges carry no gravity" if getattr(eng, "walls", None) else ""
+        walls = "; wall bridges carry no gravity" if walls else ""
         high = (f"; Bo {bo_max:.3g} is beyond the range Bo <= {BOND_RANGE:g} of capbridge's "
                 "gravity checks" if self.applied and bo_max > BOND_RANGE else "")
-        return (f"capbridge {eng.label!r}: gravity on the liquid ({why}, g = "
-                f"{self.g.tolist()} m/s^2, drho = {self.drho:g} kg/m^3): {what}; {nums}"
-                f"{extra}{walls}{high}")
+        return (f"gravity on the liquid ({why}, g = {self.g.tolist()} m/s^2, drho = "
+                f"{self.drho:g} kg/m^3): {what}; {nums}{extra}{walls}{high}")
 
     # ----------------------------------------------------------------- forces
-    def refresh(self, eng, O):
-        """Read the scene's gravity; decide (with the log line) at the first call and
-        whenever it changed."""
-        g = newton_gravity(O)
-        if self.g is None or not np.array_equal(g, self.g):
-            check_gravity(g)                # a NaN would end deep in the lookup
-            eng._say("info" if self.g is None else "warning",
-                     self.decide(eng, g, "start-up" if self.g is None else
-                                 f"gravity changed at iter {int(O.iter)}"))
+    def refresh(self, g, model, it, *, triplet_table=None, walls=False):
+        """Decide at the first call and whenever the scene's gravity ``g`` (its
+        :func:`newton_gravity`, at iteration ``it``) changed; ``triplet_table`` and
+        ``walls`` as for :meth:`decide`.
+
+        Returns
+        -------
+        (level, line) or None
+            The log level ("info" at the start, "warning" for a change) and the line of
+            a new decision; None when the decision stands.
+        """
+        if self.g is not None and np.array_equal(g, self.g):
+            return None
+        check_gravity(g)                    # a NaN would end deep in the lookup
+        start = self.g is None
+        line = self.decide(model, g, "start-up" if start else f"gravity changed at iter {it}",
+                           triplet_table=triplet_table, walls=walls)
+        return ("info" if start else "warning"), line
 
     def cluster_gravity(self):
         """(g [m/s^2], drho [kg/m^3]) for the liquid clusters when the correction is
@@ -365,14 +387,24 @@ class LiquidGravity:
             return self.g.copy(), self.drho
         return None
 
-    def grain_forces(self, eng, geom, exclude=None):
+    def grain_forces(self, model, geom, exclude=None, *, holds_forces=False,
+                     force_tolerance=0.0):
         """Gravity parts on the grains [N] (n, 3) for this refresh (after
         :meth:`refresh`), and the rows of grains whose held part changed (for held
-        forces), or ``(None, None)`` when nothing is or was applied.  Bridges
-        ``exclude`` (merged into a liquid cluster) get none.  What is handed out is kept
-        in the bridge model's ``gravity_held`` (saved with it, part of
-        ``held_grain_forces``)."""
-        model = eng.model
+        forces), or ``(None, None)`` when nothing is or was applied.
+
+        Parameters
+        ----------
+        model : BridgeModel
+        geom : the bridges' geometry of this refresh (``BridgeModel.update``).
+        exclude : rows of bridges merged into a liquid cluster (they get none), or None.
+        holds_forces : bool
+            False: the parts are added every step (all of them returned, no rows);
+            True: held as permanent forces, a grain's part handed out again when it
+            moved by more than ``force_tolerance`` of its size.
+
+        What is handed out is kept in the bridge model's ``gravity_held`` (saved with
+        it, part of ``held_grain_forces``)."""
         n = model.n
         if model.gravity_held.shape[0] != n:
             model.gravity_held = np.zeros((n, 3))
@@ -404,11 +436,11 @@ class LiquidGravity:
                                minlength=3 * n)
                    + np.bincount((3 * model.bj[k, None] + xyz).ravel(), fj.ravel(),
                                  minlength=3 * n)).reshape(n, 3)
-        if not eng.holds_forces:
+        if not holds_forces:
             model.gravity_held = new
             return new, None
         diff = new - held
-        tol = eng.force_tolerance
+        tol = force_tolerance
         # a grain's part is handed out again when it moved by more than the tolerance
         # (any change with tolerance 0, refresh_every > 1); a part that drops to zero
         # always is

@@ -103,6 +103,7 @@ from capbridge.yade.config import (ENGINE_PARAMETERS, EngineConfig, flat_keyword
                                    is_group)
 from capbridge.dem.bridges import BridgeModel, LiquidRule, default_table_path
 from capbridge.dem.coalescence_detect import find_coalescence
+from capbridge.dem.wall_bridges import wall_bodies
 # GRAVITY_MODES: public here before 0.2 (tests/test_public_surface.py)
 from capbridge.dem.liquid_gravity import (DEFAULT_LIQUID_DENSITY, GRAVITY_MODES,  # noqa: F401
                                           LiquidGravity, newton_gravity)
@@ -453,7 +454,7 @@ class CapbridgeEngine:
                                  formation_gap=self.formation_gap,
                                  initial_wet_gap=self.initial_wet_gap, skin=self.skin,
                                  with_beta=self.coalescence, ratio_step=self.ratio_step)
-        scene_geometry.setup(self, O, theta)          # periodic cell, wall bridges
+        self._setup_geometry(O, theta)
         self._map_rows()
         self.timings["setup_seconds"] += time.perf_counter() - t0
         tab = self.model.table
@@ -461,6 +462,26 @@ class CapbridgeEngine:
                   f"{rule.kind}, angles {tab.thetas.tolist()} deg, ratio nodes "
                   f"{tab.ratio_nodes.size} ({'exact' if tab.discrete else 'interpolated'}), "
                   f"table slices {tab.nbytes / 1e6:.1f} MB, refresh every {self.refresh_every}")
+
+    def _setup_geometry(self, O, sphere_theta):
+        """The periodic cell and the wall bridges of the scene
+        (:func:`capbridge.dem.scene_geometry.setup`), kept here."""
+        bodies = wall_bodies(O, self.walls_requested)
+        wall_theta = self._materials_theta(bodies)      # checked by check_scene already
+        self._cell, self.walls = scene_geometry.setup(O, self.model, sphere_theta, bodies,
+                                                      wall_theta)
+        self._cell_drift, self._cell_rebuilds = 0.0, -1
+        if self._cell is not None and self.coalescence:
+            # coalescence_detect reads raw centres: a bridge across the boundary would
+            # give a wrong angle, so the check is off (never a wrong cluster)
+            self.coalescence = False
+            self._say("warning", f"capbridge {self.label!r}: periodic cell: coalescence "
+                      "detection is off (it does not yet use nearest-image vectors)")
+        if self.walls is not None:
+            self.register_state("walls", self.walls.get_state, self.walls.set_state)
+            self._say("info", f"capbridge {self.label!r}: {len(bodies)} wall partners, "
+                      f"wall angles {np.unique(wall_theta).tolist()} deg (exact "
+                      "sphere-wall slices solved when a pair of angles first forms a bridge)")
 
     def _map_rows(self):
         """Rows of our spheres in the bulk position read (body iteration order);
@@ -474,7 +495,7 @@ class CapbridgeEngine:
         gone = rows < 0
         if gone.any():
             new_index = self.model.drop_grains(gone)
-            scene_geometry.drop_spheres(self, gone)
+            scene_geometry.drop_spheres(self.walls, gone)
             if self.clusters is not None:
                 self.clusters.remap(new_index)
             lost = ids[gone]
@@ -525,7 +546,10 @@ class CapbridgeEngine:
                 raise ValueError(f"initial_pairs: body {exc} is not a wet sphere") from None
         first = not self.model.initialised
         self._step_pos = pos                  # the centres this step's forces belong to (VTK)
-        scene_geometry.before_update(self, O, pos)     # periodic cell follows O.cell
+        if self._cell is not None:                   # the periodic cell follows O.cell
+            self._cell_drift, self._cell_rebuilds = scene_geometry.before_update(
+                self._cell, self.model, O.cell.hSize, pos, self._cell_drift,
+                self._cell_rebuilds)
         geom = self.model.update(pos, step=it, initial_pairs=pairs)
         self.events["formed"] += geom["formed"]
         self.events["ruptured"] += geom["ruptured"]
@@ -534,7 +558,12 @@ class CapbridgeEngine:
                                  or it - self._coal_last >= self.coalescence_every):
             rep = self.check_coalescence(pos, geom)
             self._coal_last = it
-        self.gravity.refresh(self, O)             # g from NewtonIntegrator, decision
+        # g from NewtonIntegrator: a decision at the start and when it changed
+        said = self.gravity.refresh(
+            newton_gravity(O), self.model, it, walls=self.walls is not None,
+            triplet_table=self.triplet_table if self.triplet_forces else None)
+        if said is not None:
+            self._say(said[0], f"capbridge {self.label!r}: {said[1]}")
         tri = None
         if self.triplet_forces and ((rep is not None and rep.n_triplets) or
                                     (self.clusters is not None and self.clusters.n)):
@@ -550,12 +579,15 @@ class CapbridgeEngine:
         in_clusters = (self.clusters.bridge_rows(self.model)
                        if self.gravity.applied and self.clusters is not None
                        and self.clusters.n else None)
-        g_forces, g_changed = self.gravity.grain_forces(self, geom, in_clusters)
+        g_forces, g_changed = self.gravity.grain_forces(
+            self.model, geom, in_clusters, holds_forces=self.holds_forces,
+            force_tolerance=self.force_tolerance)
         if g_forces is not None:
             forces = forces + g_forces
             if changed is not None and g_changed is not None:
                 changed = np.union1d(changed, g_changed)
-        forces, changed = scene_geometry.wall_forces(self, O, pos, forces, changed, first)
+        forces, changed = scene_geometry.wall_forces(self.walls, O, pos, forces, changed,
+                                                     first, self.holds_forces)
         self._apply(forces, changed, O)
         self._last_geom = geom
         self.timings["steps"] += 1
@@ -868,7 +900,7 @@ class CapbridgeEngine:
         there are any; see :mod:`capbridge.yade.engine_vtk`."""
         from capbridge.yade.engine_vtk import write_vtk
 
-        return write_vtk(self, path, overwrite=overwrite)
+        return write_vtk(self.snapshot(), path, overwrite=overwrite)
 
     def vtk_recorder(self, directory, every=100, prefix=None, overwrite=False):
         """A ``PyRunner`` that writes the bridges every ``every`` steps into ``directory``
@@ -876,7 +908,8 @@ class CapbridgeEngine:
         ``O.engines`` after the capillary PyRunner."""
         from capbridge.yade.engine_vtk import vtk_recorder
 
-        return vtk_recorder(self, directory, every=every, prefix=prefix, overwrite=overwrite)
+        return vtk_recorder(self.label, directory, every=every, prefix=prefix,
+                            overwrite=overwrite)
 
 
 set_factory(CapbridgeEngine.from_scene)   # get_engine after O.load in a new process

@@ -90,11 +90,12 @@ def bridge_arrays(model, geom, pos, ids, walls=None, report=None):
             "cluster": cluster, "extra": extra}, clusters
 
 
-def write_vtk(eng, path, overwrite=False):
-    """Write the bridges to ``path`` (``.vtp``/``.vtk``) and, when there are liquid
+def write_vtk(snapshot, path, overwrite=False):
+    """Write the bridges of ``snapshot`` (:meth:`CapbridgeEngine.snapshot`, the arguments
+    of :func:`bridge_arrays`) to ``path`` (``.vtp``/``.vtk``) and, when there are liquid
     clusters, ``<stem>_clusters<suffix>`` beside it.  Returns the files written."""
     path = Path(path)
-    b, clusters = bridge_arrays(**eng.snapshot())
+    b, clusters = bridge_arrays(**snapshot)
     out = [vtk_output.write_bridges(path, b["ends"], b["volume"], b["force"], b["status"],
                                     b["cluster"], extra=b["extra"], title=TITLE,
                                     overwrite=overwrite)]
@@ -104,25 +105,27 @@ def write_vtk(eng, path, overwrite=False):
     return out
 
 
-def vtk_recorder(eng, directory, every=100, prefix=None, overwrite=False):
-    """A ``PyRunner`` writing the engine's bridges every ``every`` steps into
-    ``directory`` (``<prefix>_bridges_<iter>.vtp`` and a ``.pvd`` time series; prefix
-    default the engine's label).  Files of an earlier run with the same prefix are an
-    error unless ``overwrite=True``.  After ``O.load`` in a new process the PyRunner
-    carries on in the same directory (the series continues)."""
+def vtk_recorder(label, directory, every=100, prefix=None, overwrite=False):
+    """A ``PyRunner`` writing the bridges of the engine labelled ``label`` every
+    ``every`` steps into ``directory`` (``<prefix>_bridges_<iter>.vtp`` and a ``.pvd``
+    time series; prefix default the label).  Files of an earlier run with the same
+    prefix are an error unless ``overwrite=True``.  The PyRunner finds the engine by
+    its label (:func:`~capbridge.yade.registry.get_engine`) at each write: after
+    ``O.load`` in a new process it carries on with the engine made again there, in the
+    same directory (the series continues)."""
     from yade import wrapper
 
     every = int(every)
     if every < 1:
         raise CapbridgeInputError(f"every={every}: the recorder period must be >= 1 step")
-    prefix = eng.label if prefix is None else str(prefix)
+    prefix = label if prefix is None else str(prefix)
     directory = Path(directory).resolve()
     _RECORDERS[(str(directory), prefix)] = vtk_output.BridgeVTKRecorder(
         directory, prefix=prefix, overwrite=overwrite)
     cmd = ("from capbridge.yade.engine_vtk import _record; "
-           f"_record({eng.label!r}, {str(directory)!r}, {prefix!r})")
+           f"_record({label!r}, {str(directory)!r}, {prefix!r})")
     return wrapper.PyRunner(command=cmd, iterPeriod=every, initRun=False,
-                            label=f"{eng.label}_vtk")
+                            label=f"{label}_vtk")
 
 
 def _record(label, directory, prefix):
