@@ -61,6 +61,7 @@ import numpy as np
 from capbridge.status import Status
 from capbridge.surrogate.base import has_number
 from capbridge.surrogate.doublet import BOND_MAX
+from capbridge.surrogate.grid import FineAxis, rows_linear
 from capbridge.dem.bridges import ERROR_BAND, distinct_values
 from capbridge.physics.gravity import doublet_gravity_forces
 from capbridge.validation import CapbridgeInputError
@@ -457,8 +458,9 @@ class LiquidGravity:
 
         A bridge's ratio, angle and V* do not change while it lives: its w, u, c are
         looked up once, on the nodes of the response's s axis (:meth:`_profiles_for`),
-        and each refresh interpolates them linearly in s, which is the surrogate's
-        multilinear interpolation with the other coordinates fixed."""
+        and each refresh interpolates them linearly in s (the grid kernel,
+        :mod:`capbridge.surrogate.grid`), which is the surrogate's multilinear
+        interpolation with the other coordinates fixed."""
         w = np.full(k.size, SHARE_AXIAL)
         c = np.full(k.size, CURVATURE_AXIAL)
         u = np.full(k.size, SHARE_AXIAL)
@@ -469,12 +471,12 @@ class LiquidGravity:
         if not same.size:
             return w, c, u
         kk = k[same]
-        prof, code, s_nodes = self._profiles_for(model, kk)
+        prof, code, s_axis = self._profiles_for(model, kk)
         s = np.sqrt(np.clip(1.0 - geom["gap"][kk] / model.d_rupt_si[kk], 0.0, 1.0))
-        j = np.clip(np.searchsorted(s_nodes, s, side="right") - 1, 0, s_nodes.size - 2)
-        t = np.clip((s - s_nodes[j]) / (s_nodes[j + 1] - s_nodes[j]), 0.0, 1.0)
+        # s outside the nodes: the end node's value
+        j, t = s_axis.locate(np.clip(s, s_axis.lo, s_axis.hi))
+        val = rows_linear(prof, j, t)
         rows = np.arange(kk.size)
-        val = prof[rows, j] + t[:, None] * (prof[rows, j + 1] - prof[rows, j])
         ok = has_number(code[rows, j]) & has_number(code[rows, j + 1]) & \
             np.isfinite(val).all(-1)
         w[same[ok]], u[same[ok]], c[same[ok]] = val[ok, 0], val[ok, 1], val[ok, 2]
@@ -482,13 +484,16 @@ class LiquidGravity:
 
     def _profiles_for(self, model, kk):
         """(w, u, c) on the response's s nodes for bridges ``kk`` (m, n_s, 3), the
-        surrogate's code at each node (m, n_s) and the s nodes.  Kept by the bridge
+        surrogate's code at each node (m, n_s) and the s axis (a
+        :class:`~capbridge.surrogate.grid.FineAxis` on the nodes).  Kept by the bridge
         model's pool slot, with the bridge's key and V* it was made for: derived state,
         remade after a load or when a slot changes hands."""
         sur = model.table.surrogate
         if self._profiles is None:
             s_nodes = np.asarray(sur.table_["gravity_s"].values, float)
-            self._profiles = {"s": s_nodes, "key": np.full(0, -1, np.int64),
+            # refine=1: the nodes themselves (not uniform: located by an index map)
+            self._profiles = {"s": s_nodes, "s_axis": FineAxis(s_nodes, 1),
+                              "key": np.full(0, -1, np.int64),
                               "vstar": np.zeros(0), "val": np.zeros((0, s_nodes.size, 3)),
                               "code": np.zeros((0, s_nodes.size), np.int8)}
         P = self._profiles
@@ -515,7 +520,7 @@ class LiquidGravity:
                                     -1).reshape(m, ns, 3)
             P["code"][sl] = r["status"].reshape(m, ns)
             P["key"][sl], P["vstar"][sl] = model.keys[new], model.vstar[new]
-        return P["val"][slot], P["code"][slot], P["s"]
+        return P["val"][slot], P["code"][slot], P["s_axis"]
 
     # ------------------------------------------------------------------ state
     def get_state(self):

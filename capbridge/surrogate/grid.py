@@ -13,7 +13,9 @@ was written once per user before):
   flat indices, the DEM's inner loop (``DoubletSurrogate.predict_fixed_theta``,
   ``SceneTable.lookup``);
 * :func:`profile_value`: linear interpolation of s-profiles on a uniform s grid (the
-  sphere-wall bridges);
+  sphere-wall bridges), by :func:`rows_linear`, which interpolates one profile per
+  point between two of its nodes (also the DEM's gravity response along s, located on
+  its non-uniform axis by :class:`FineAxis`);
 * :class:`Grid` (simplex or multilinear kernel on a fine n-D grid, several variables)
   and :class:`Descending` (sorted fractions for the simplex kernel): the triplet's.
 
@@ -25,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["UniformAxis", "FineAxis", "bilinear", "trilinear", "bilinear_flat",
-           "profile_value", "Grid", "Descending", "corner_offsets", "corner_weights"]
+           "rows_linear", "profile_value", "Grid", "Descending", "corner_offsets",
+           "corner_weights"]
 
 
 class UniformAxis:
@@ -98,14 +101,21 @@ def bilinear_flat(flat, k, stride, fs, fv):
     return a + (b - a) * fv
 
 
+def rows_linear(rows, i, w):
+    """Linear interpolation of one profile per point: row k of ``rows`` (k, N, ...)
+    between its nodes ``i[k]`` and ``i[k] + 1``, weight ``w[k]`` toward the second
+    (the trailing dims of ``rows`` are carried along)."""
+    k = np.arange(rows.shape[0])
+    w = w.reshape(w.shape + (1,) * (rows.ndim - 2))
+    return rows[k, i] * (1 - w) + rows[k, i + 1] * w
+
+
 def profile_value(rows, x):
     """Linear interpolation of profiles ``rows`` (k, N) on the uniform s grid [0, 1] at
     s = sqrt(1 - x), x = d*/d*_rupt (overlaps count as contact, beyond rupture s = 0)."""
     s = np.sqrt(np.clip(1.0 - x, 0.0, 1.0)) * (rows.shape[1] - 1)
     i = np.minimum(s.astype(np.intp), rows.shape[1] - 2)
-    u = s - i
-    k = np.arange(rows.shape[0])
-    return rows[k, i] * (1 - u) + rows[k, i + 1] * u
+    return rows_linear(rows, i, s - i)
 
 
 def corner_offsets(strides):
