@@ -4,6 +4,7 @@ yade_runtime.ensure_yade_importable()           # nothing to do under the yade l
 from yade import *
 from yade import pack, utils
 
+from capbridge.yade.config import WaterContent
 from capbridge.yade.engine import CapbridgeEngine
 
 box = ((0, 0, 0), (0.012, 0.012, 0.02))         # [m]
@@ -16,7 +17,7 @@ sp.toSimulation(material=glass)
 
 cap = CapbridgeEngine(theta={"glass": 20.0},    # contact angle per material [deg]
                       gamma=0.073,              # surface tension [N/m]
-                      water_content=0.01)       # liquid mass / grain mass, conserved
+                      liquid=WaterContent(0.01))  # liquid mass / grain mass, conserved
 O.engines = [
     ForceResetter(),
     InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
