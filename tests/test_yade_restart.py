@@ -3,7 +3,8 @@
 * restarts: after ``O.saveTmp``/``O.loadTmp`` and after ``O.save`` -> a new process ->
   ``O.load`` (no engine created there: the PyRunner re-creates it from the scene) the
   forces YADE applies in the next steps, with bridges rupturing and forming, equal the
-  forces of the uninterrupted run to 1e-9 of the largest; both force modes;
+  forces of the uninterrupted run to 1e-9 of the largest; both force modes; an engine
+  made from flat keywords or from keyword groups;
 * the engine adds to a user's permanent force, never replaces it;
 * misuse gives one clear error: PyRunner after NewtonIntegrator, two engines of one
   label, a water content of 1.0 (100 %), spheres added while running; an erased wet
@@ -78,6 +79,20 @@ def test_forces_survive_save_and_load_in_a_new_process(tmp_path):
     assert lq["bridges"] > 0 and lq["films"] > 0
     assert lq["total"] == pytest.approx(ref["state"]["budget"]["expected"], rel=1e-12)
     assert ref["state"]["budget"]["formed_count"] > 0         # bridges made after step 1
+    assert any("state restored" in m for m in new["messages"])
+
+
+def test_engine_made_from_groups_survives_save_and_load_in_a_new_process(tmp_path):
+    """An engine made from keyword groups (``liquid=WaterContent(0.01)``,
+    ``speed=Speed(...)``) saves the flat keywords: a new process that never creates the
+    engine re-creates it from them, and the next 40 steps give the forces of the run
+    that went on after the save."""
+    f = tmp_path / "pile_groups.yade.gz"
+    ref = _run("restart_capbridge.py", ["--mode", "save", "--file", f,
+                                        "--style", "groups"]).result
+    new = _run("restart_capbridge.py", ["--mode", "load", "--file", f]).result
+    _same_forces(ref["before"], new["rows"])
+    _user_perm_kept(new["rows"], 0.0)
     assert any("state restored" in m for m in new["messages"])
 
 

@@ -1,7 +1,7 @@
 """A small wet pile, saved and reloaded: do the capillary forces carry on unchanged?
 
     python restart_capbridge.py --mode tmp|save|load [--file F] [--tolerance 0] [--refresh 1]
-        [--settle 300] [--record 40]
+        [--settle 300] [--record 40] [--style flat|groups]
 
 40 grains (radius 1 mm +-20 %) settle for ``settle`` steps in a box under gravity with
 a 1 % water content (conserving rule, bridges from the films), then:
@@ -14,7 +14,9 @@ a 1 % water content (conserving rule, bridges from the films), then:
 A record is, per step, the force YADE applied to every grain (``O.forces.f`` after the
 step: contacts + capillary + permanent) and the engine's bridge count and ledger.  A
 user's permanent force is set on grain ``--perm-id`` before every run segment (YADE
-drops permanent forces on load, the user sets it again).  Prints one JSON line.
+drops permanent forces on load, the user sets it again).  ``--style``: the engine made
+from the flat keywords or from keyword groups (capbridge.yade.config).  Prints one JSON
+line.
 """
 import argparse
 import sys
@@ -37,6 +39,7 @@ cli.add_argument("--refresh", type=int, default=1)
 cli.add_argument("--settle", type=int, default=1500)
 cli.add_argument("--record", type=int, default=40)
 cli.add_argument("--perm", type=float, default=2e-4, help="user's permanent force [N] (z)")
+cli.add_argument("--style", choices=("flat", "groups"), default="flat")
 cfg = cli.parse_args(sys.argv[1:])
 PERM = (0.0, 0.0, cfg.perm)
 
@@ -79,6 +82,7 @@ if cfg.mode == "load":
     yade_runtime.emit_result({"rows": rows, "messages": get_engine("pile").messages})
     sys.exit(0)
 
+from capbridge.yade.config import Speed, WaterContent  # noqa: E402
 from capbridge.yade.engine import CapbridgeEngine  # noqa: E402
 
 box = ((0, 0, 0), (0.008, 0.008, 0.014))
@@ -89,8 +93,14 @@ glass = O.materials.append(FrictMat(young=1e6, poisson=0.3, density=2600, fricti
 O.bodies.append(utils.aabbWalls(box, thickness=0, material=glass))
 ids = sp.toSimulation(material=glass)
 perm_id = ids[0]
-cap = CapbridgeEngine(theta={"glass": 20.0}, gamma=0.073, water_content=0.01,
-                      force_tolerance=cfg.tolerance, refresh_every=cfg.refresh, label="pile")
+if cfg.style == "flat":
+    cap = CapbridgeEngine(theta={"glass": 20.0}, gamma=0.073, water_content=0.01,
+                          force_tolerance=cfg.tolerance, refresh_every=cfg.refresh,
+                          label="pile")
+else:
+    cap = CapbridgeEngine(theta={"glass": 20.0}, gamma=0.073, liquid=WaterContent(0.01),
+                          speed=Speed(force_tolerance=cfg.tolerance,
+                                      refresh_every=cfg.refresh), label="pile")
 O.engines = yade_runtime.box_engines(cap.pyrunner())
 O.dt = 0.5 * utils.PWaveTimeStep()
 O.forces.setPermF(perm_id, PERM)
