@@ -186,11 +186,8 @@ def export_from_solver(directory, theta, ratios=YADE_RATIOS, suctions=None, gaps
     YADE's historical files used 350 suctions and 80 distances; the cost here is about
     8 ms per point.  Returns ``(table, paths)``.
     """
-    try:
-        from capbridge.solvers.young_laplace import solve_doublet_suction
-    except ImportError as exc:  # the solver is not there (yet)
-        raise RuntimeError("capbridge.solvers.young_laplace.solve_doublet_suction is "
-                           f"not available: {exc}") from exc
+    from capbridge.solvers.young_laplace import solve_doublet_suction
+
     kw = dict(solver_kwargs or {})
     if theta2 is not None:          # only when given: equal angles keep the plain call
         kw["theta2"] = theta2
