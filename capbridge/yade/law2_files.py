@@ -50,7 +50,6 @@ from capbridge.yade.export_manifest import write_manifest
 from capbridge.yade.suction_table import as_suction_table
 from capbridge.yade.yade_units import FLOAT_FORMAT, to_yade_units
 
-
 #: Radius ratios R/r of the ten files ``Law2_ScGeom_CapillaryPhys_Capillarity`` loads, in
 #: the order it loads them (hard-coded in YADE's ``postLoad``).
 YADE_RATIOS = (1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 3.0, 4.0, 5.0, 10.0)
@@ -73,6 +72,7 @@ def theta_suffix(theta, theta2=None):
 
 
 def _fmt_number(x):
+    """``x`` as file names and the ratio line print it: 10 significant digits, no '+'."""
     return ("%.10g" % x).replace("+", "")
 
 
