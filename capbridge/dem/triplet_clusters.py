@@ -255,6 +255,34 @@ def set_bridge_volumes(model, rows, volumes):
     model.set_volumes(rows, volumes)
 
 
+def _new_stats():
+    """Counters of how clusters live (:meth:`LiquidClusters.report`, ``"life"``)."""
+    return {"cluster_steps": 0, "steps": 0, "lives": [], "merge_jumps": [],
+            "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
+            "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0}
+
+
+def _bridge_grain_forces(model, geom, grains, members):
+    """(k, 3, 3) doublet forces [N] of the bridges ``members`` (k, 3, 2; -1 padded) on
+    the grains ``grains`` (k, 3) of each cluster: what the cluster's liquid gave those
+    grains as separate bridges (attraction along the centre lines)."""
+    k = grains.shape[0]
+    out = np.zeros((k, 3, 3))
+    rows = LiquidClusters._rows(model, members.reshape(-1, 2)).reshape(k, 3)
+    for c, m in np.argwhere(rows >= 0):
+        b = rows[c, m]
+        fv = geom["d"][b] * (geom["force"][b] / geom["dist"][b])
+        out[c, grains[c] == model.bi[b]] += fv
+        out[c, grains[c] == model.bj[b]] -= fv
+    return out
+
+
+def _jumps(before, after, r, gamma):
+    """Largest change of a grain's force per cluster, in units of 2 pi gamma r."""
+    return (np.linalg.norm(after - before, axis=-1).max(axis=1)
+            / force_scale(r, gamma)).tolist()
+
+
 class LiquidClusters:
     """Coalesced triplets of a packing: merge, triplet forces, split (module docstring).
 
@@ -301,6 +329,8 @@ class LiquidClusters:
         #: drho [kg/m^3]) or None (:meth:`gravity_forces`)
         self.gravity = None
         self.gravity_fallback = 0
+        self._now = 0
+        self.stats = _new_stats()
 
     def _clear(self):
         self.grains = np.empty((0, 3), np.intp)        # sorted grain triple per cluster
@@ -308,6 +338,7 @@ class LiquidClusters:
         self.volume = np.empty(0)                      # cluster liquid [m^3]
         self.born = np.empty(0, np.intp)
         self.approx = np.empty(0, bool)
+        self.last_forces = np.empty((0, 3, 3))         # grain forces last step [N]
 
     # ------------------------------------------------------------------ the table
     @property
@@ -500,12 +531,18 @@ class LiquidClusters:
             volumes, else ``geom``), ``ruptured`` bridges ruptured by that update.
         """
         ruptured = 0
+        self._now = step
         if self.n:
             self._drop_lost(model)
+        merged0 = self.events["merged"]
         if report is not None and report.n_triplets:
             self._merge(model, pos, report, step)
         elif report is not None:
             self._note_funicular([])
+        n_before = self.n - (self.events["merged"] - merged0)     # new ones are last
+        # the bridges' forces on the grains of the new clusters, for the jump at merge
+        merged_from = _bridge_grain_forces(model, geom, self.grains[n_before:],
+                                           self.members[n_before:])
         forces = np.zeros((model.n, 3))
         if not self.n:
             self.last = None
@@ -518,13 +555,27 @@ class LiquidClusters:
         if geometry.any() or energy.any():
             self.events["split_geometry"] += int(geometry.sum())
             self.events["split_energy"] += int(energy.sum())
-            changed = self._split(model, pos, np.flatnonzero(geometry | energy))
+            which = np.flatnonzero(geometry | energy)
+            gone = {"grains": self.grains[which], "members": self.members[which],
+                    "forces": self.last_forces[which]}
+            new = np.zeros(self.n, bool)
+            new[n_before:] = True
+            merged_from = merged_from[~np.isin(np.flatnonzero(new), which)]
+            changed = self._split(model, pos, which)
             if changed:
                 touched = model._touched.copy()
                 n0 = model.ledger["ruptured_count"]
                 geom = model.update(pos, step=step, form=False)
                 model._touched = np.concatenate([touched, model._touched])
                 ruptured = model.ledger["ruptured_count"] - n0
+            # jump at split: the cluster's forces of the step before (none for a
+            # cluster split in its merge step) -> its bridges' forces now
+            was = np.isfinite(gone["forces"]).all(axis=(1, 2)) & ~new[which]
+            if was.any():
+                self.stats["split_jumps"] += _jumps(
+                    gone["forces"][was], _bridge_grain_forces(
+                        model, geom, gone["grains"][was], gone["members"][was]),
+                    model.radii[gone["grains"][was]].min(axis=1), self.gamma)
             # the surviving clusters' bridges kept their volumes and gaps: the update
             # cannot have ruptured them
             keep = ok & ~energy
@@ -540,6 +591,14 @@ class LiquidClusters:
             if self.gravity is not None:
                 F += self.gravity_forces(model, pos)
             np.add.at(forces, self.grains.ravel(), F.reshape(-1, 3))
+            fresh = self.born == step
+            fresh[:self.n - merged_from.shape[0]] = False
+            if fresh.any():
+                self.stats["merge_jumps"] += _jumps(
+                    merged_from, F[fresh], model.radii[self.grains[fresh]].min(axis=1),
+                    self.gamma)
+            self.last_forces = F
+        self.stats["cluster_steps"] += self.n
         self.last = {"status": res["status"], "f": res["f"], "gaps": res["gaps"]}
         return {"forces": forces, "grains": np.unique(self.grains), "geom": geom,
                 "ruptured": ruptured}
@@ -569,9 +628,14 @@ class LiquidClusters:
             for g, rw, mx in zip(T, rows, mixed):
                 b = rw[rw >= 0]
                 pairs = [(int(bi[x]), int(bj[x])) for x in b]
-                if mx or any(p in have for p in pairs):
-                    continue                          # mixed angles, or already merged
-                cand.append((g, pairs, float(model.vol[b].sum())))
+                self.stats["triplets_seen"] += 1
+                if mx:
+                    self.stats["triplets_mixed"] += 1
+                elif any(p in have for p in pairs):
+                    self.stats["triplets_live"] += 1          # already merged
+                else:
+                    cand.append((g, pairs, float(model.vol[b].sum())))
+        self.stats["larger_seen"] += len(funicular)
         self._note_funicular(funicular)
         if funicular and self.n:
             # merged triplets whose bridges joined a funicular cluster: released to
@@ -588,6 +652,8 @@ class LiquidClusters:
         ok = np.isin(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
         # refused triplets are counted once, not at every check while they stay refused
         refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
+        self.stats["triplets_live"] += int(ok.sum())
+        self.stats["triplets_refused"] += int((~ok).sum())
         self.events["merge_refused"] += len(refused - self._refused_keys)
         self._refused_keys = refused
         for k in np.flatnonzero(ok):
@@ -600,6 +666,7 @@ class LiquidClusters:
             self.volume = np.append(self.volume, v)
             self.born = np.append(self.born, step)
             self.approx = np.append(self.approx, approx)
+            self.last_forces = np.concatenate([self.last_forces, np.full((1, 3, 3), np.nan)])
             self.events["merged"] += 1
             self.events["approximate"] += int(approx)
 
@@ -616,9 +683,11 @@ class LiquidClusters:
     # ----------------------------------------------------------------- split
     def _remove(self, mask):
         keep = ~np.asarray(mask, bool)
+        self.stats["lives"] += (self._now - self.born[~keep]).tolist()
         self.grains, self.members = self.grains[keep], self.members[keep]
         self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
             self.approx[keep]
+        self.last_forces = self.last_forces[keep]
 
     def _drop_lost(self, model):
         """Clusters whose bridge is gone (doublet rupture, erased grain): dissolved."""
@@ -710,9 +779,34 @@ class LiquidClusters:
                "timings": dict(self.timings)}
         out["born"] = self.born.tolist()            # DEM step of each cluster's merge
         out["gravity_fallback"] = self.gravity_fallback
+        out["life"] = self.life_summary()
         if self.last is not None and self.n:
             out["statuses"] = [Status(int(s)).name.lower() for s in self.last["status"]]
         return out
+
+    def life_summary(self):
+        """How the clusters lived: cluster-steps, lives of the ended clusters (steps),
+        the largest change of a grain's force at merge and at split (units of
+        2 pi gamma r: median, p90, max), and the coalesced triplets met at the checks:
+        answered by the table (merged or alive), refused (out of the table, no result,
+        separated lower: doublet forces kept), of mixed angles; clusters of four
+        grains or more met at the checks."""
+        st = self.stats
+
+        def dist(x):
+            x = np.asarray(x, float)
+            if not x.size:
+                return {"n": 0}
+            return {"n": int(x.size), "median": float(np.median(x)),
+                    "p90": float(np.percentile(x, 90)), "max": float(x.max())}
+
+        alive = (self._now - self.born).tolist()
+        return {"cluster_steps": int(st["cluster_steps"]),
+                "ended_lives": dist(st["lives"]), "alive_ages": dist(alive),
+                "merge_jump": dist(st["merge_jumps"]), "split_jump": dist(st["split_jumps"]),
+                **{k: int(st[k]) for k in ("triplets_seen", "triplets_live",
+                                           "triplets_refused", "triplets_mixed",
+                                           "larger_seen")}}
 
     def remap(self, new_index):
         """Grains were erased (``BridgeModel.drop_grains`` returned ``new_index``):
@@ -744,6 +838,7 @@ class LiquidClusters:
         self.volume = np.asarray(st["volume"], float).ravel()
         self.born = np.asarray(st["born"], np.intp).ravel()
         self.approx = np.asarray(st["approx"], bool).ravel()
+        self.last_forces = np.full((self.volume.size, 3, 3), np.nan)
         self.events.update({k: int(v) for k, v in st["events"].items()})
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
