@@ -26,12 +26,6 @@ def setup(eng, O, sphere_theta):
         m.cell = m.cand.cell = cell
         eng._cell = cell
         _check_cell(eng)
-        if eng.coalescence:
-            # coalescence_detect reads raw centres: a bridge across the boundary would
-            # give a wrong angle, so the check is off (never a wrong cluster)
-            eng.coalescence = False
-            eng._say("warning", f"capbridge {eng.label!r}: periodic cell: coalescence "
-                     "detection is off (it does not yet use nearest-image vectors)")
     bodies = wall_bodies(O, getattr(eng, "walls_requested", False))
     eng.walls = None
     if bodies:

@@ -722,7 +722,8 @@ class CapbridgeEngine:
             rep = find_coalescence(pos, m.bi, m.bj, np.empty(0), np.empty(0), m.vol, m.n)
         else:
             bi_ang, bj_ang = m.filling_angles(gap)
-            rep = find_coalescence(pos, m.bi, m.bj, bi_ang, bj_ang, m.vol, m.n)
+            rep = find_coalescence(pos, m.bi, m.bj, bi_ang, bj_ang, m.vol, m.n,
+                                   pair_vectors=m.pair_vectors)
         s = rep.summary()
         s["checks"] = self._coal_summary["checks"]
         s["iter"] = self._iter()
