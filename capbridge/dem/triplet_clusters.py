@@ -79,7 +79,6 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import force_scale
-from capbridge.physics.gravity import liquid_weight
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -392,14 +391,19 @@ class LiquidClusters:
         rows = self._rows(model, self.members.reshape(-1, 2))
         return rows[rows >= 0]
 
-    def lookup(self, model, pos, grains, volume):
+    def lookup(self, model, pos, grains, volume, gravity=False):
         """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
 
         Gaps below zero (grains in contact overlap in a DEM) are taken as contact, as
         the doublet bridges do.  Returns a dict: ``f`` (k, 3) pair forces [N] in the
         order (0,1), (0,2), (1,2) of each triple (attraction > 0), ``status`` (k,),
         ``lower`` (k,) lower-energy-state codes, ``u`` (k, 3, 3) unit vectors of the
-        pairs (actual centre lines), ``gaps`` (k, 3) [m].
+        pairs (actual centre lines), ``gaps`` (k, 3) [m].  With ``gravity`` (and
+        :attr:`gravity` set), the same lookup also gives ``gravity`` (k, 3, 3): the
+        gravity parts of the grain forces [N] in the scene frame
+        (:meth:`gravity_forces`); ``status`` stays the answer without gravity (a
+        cluster whose gravity response has no number keeps its forces, with the
+        weight shared equally, counted).
         """
         t0 = time.perf_counter()
         sur = self.surrogate()
@@ -419,32 +423,88 @@ class LiquidClusters:
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
+        grav = self._gravity_request(gravity, sur, d, C, r) if k else None
         # clusters whose gaps (scaled as predict_vectors scales them) or angle are
         # outside the table are OUT_OF_RANGE without a lookup
         ask = np.flatnonzero(sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
                                         radii=R / r[:, None]))
+        if grav is not None:
+            out["gravity"] = np.full((k, 3, 3), np.nan)
         if ask.size:
+            kw = {} if grav is None else {"bond": grav["bond"][ask],
+                                          "gravity": grav["local"][ask]}
             try:
                 res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
-                                          theta[ask], radii=R[ask] / r[ask, None])
+                                          theta[ask], radii=R[ask] / r[ask, None], **kw)
             except CapbridgeInputError:
                 if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
                     for c in ask:
-                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1])
-                        for key in ("f", "status", "lower"):
-                            out[key][c] = one[key][0]
+                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1],
+                                          gravity)
+                        for key in ("f", "status", "lower", "gravity"):
+                            if key in out:
+                                out[key][c] = one[key][0]
             else:
                 fs = force_scale(r[ask], self.gamma)
                 out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
                     fs[:, None]
-                out["status"][ask] = res["status"]
+                out["status"][ask] = res.get("status_without_gravity", res["status"])
                 out["lower"][ask] = res["lower_energy_state"]
+                if grav is not None:
+                    part = res["gravity_first_order"] + res["gravity_second_order"]
+                    part[grav["bond"][ask] == 0.0] = np.nan     # Bo above the table's
+                    out["gravity"][ask] = np.einsum(
+                        "kji,kgj->kgi", grav["S"][ask],
+                        np.einsum("kij,kgj->kgi", grav["T"][ask], part)) * fs[:, None, None]
+        if grav is not None:
+            out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume, r)
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
 
+    def _gravity_request(self, gravity, sur, d, C, r):
+        """What the lookup needs for gravity on the clusters' liquid, or None (no
+        gravity, or a table without a response: then :meth:`_gravity_fallback` is not
+        needed either, the forces are the zero-gravity ones, counted)."""
+        from capbridge.surrogate.doublet import BOND_MAX
+
+        if not gravity or self.gravity is None:
+            return None
+        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+        gn = float(np.linalg.norm(g_vec))
+        if gn == 0.0 or drho == 0.0:
+            return None
+        k = d.shape[0]
+        if not getattr(sur, "has_gravity_", False):
+            self.gravity_fallback += k
+            self.gravity_fallback_reasons["table_has_no_response"] += k
+            return None
+        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
+        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
+        local = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec)) / gn
+        bond = drho * gn * r**2 / self.gamma
+        above = bond > BOND_MAX
+        return {"S": S, "T": T, "local": local, "bond": np.where(above, 0.0, bond),
+                "bond_all": bond, "above": above}
+
+    def _gravity_fallback(self, part, grav, volume, r):
+        """Clusters whose gravity response has no number (a cell touching a gravity
+        node that did not converge: in the shipped table 28 of 405 nodes, theta 0-20
+        deg at v 0.85-1.25) or whose Bo is above the table's get the liquid's weight
+        shared equally by their three grains (the first-order answer for three equal
+        grains in an equilateral triangle), counted by reason."""
+        bad = ~np.all(np.isfinite(part), axis=(1, 2))
+        self.gravity_fallback_reasons["no_response_number"] += int((bad & ~grav["above"]).sum())
+        self.gravity_fallback_reasons["bond_above_max"] += int(grav["above"].sum())
+        self.gravity_fallback += int(bad.sum())
+        if bad.any():
+            g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+            weight = drho * volume[bad, None] * g_vec             # [N], the liquid's weight
+            part[bad] = (weight / 3.0)[:, None, :]
+        return part
+
     def gravity_forces(self, model, pos):
-        """Gravity parts of the clusters' grain forces [N], (k, 3, 3) [cluster, grain,
-        xyz] in the scene frame.
+        """Gravity parts of the live clusters' grain forces [N], (k, 3, 3) [cluster,
+        grain, xyz] in the scene frame.
 
         With g and drho from :attr:`gravity` and b = Bo g_hat (Bo = drho |g| r^2 /
         gamma, r the cluster's smallest radius), the triplet table's response
@@ -456,70 +516,17 @@ class LiquidClusters:
         as contact), rotated into the scene by the frame of the grains' centre lines
         (grain 0 -> 1 and the plane of the three).  A cluster whose Bo is above the
         surrogate's ``BOND_MAX`` or whose response has no number there gets the
-        liquid's weight shared equally by its three grains (the first-order answer for
-        three equal grains in an equilateral triangle; counted in
-        :attr:`gravity_fallback`, by reason in :attr:`gravity_fallback_reasons`: in the
-        shipped table the response has no number in the cells that touch its 28
-        gravity nodes that did not converge, at theta 0-20 deg and v 0.85-1.25);
-        zero for a table without a gravity response.
+        liquid's weight shared equally by its three grains (:meth:`_gravity_fallback`,
+        counted in :attr:`gravity_fallback` and by reason in
+        :attr:`gravity_fallback_reasons`); zero for a table without a gravity response.
+        The engine's step gets these parts from its one lookup per step
+        (:meth:`lookup` with ``gravity=True``); this method is that lookup's part.
         """
-        from capbridge.surrogate.doublet import BOND_MAX
-
-        k = self.n
-        out = np.zeros((k, 3, 3))
-        if self.gravity is None or not k:
+        out = np.zeros((self.n, 3, 3))
+        if not self.n:
             return out
-        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
-        gn = float(np.linalg.norm(g_vec))
-        sur = self.surrogate()
-        if gn == 0.0 or drho == 0.0:
-            return out
-        if not getattr(sur, "has_gravity_", False):
-            self.gravity_fallback += k
-            self.gravity_fallback_reasons["table_has_no_response"] += k
-            return out
-        grains = self.grains
-        R = model.radii[grains]
-        P = ((0, 1), (0, 2), (1, 2))
-        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
-        dist = np.linalg.norm(d, axis=-1)
-        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
-        g = np.maximum(gaps, 0.0)
-        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
-        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
-        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
-        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
-        g_loc = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec))
-        r = R.min(axis=1)
-        bond = drho * gn * r**2 / self.gamma
-        use = np.flatnonzero(bond <= BOND_MAX)
-        part = np.zeros((k, 3, 3))
-        if use.size:
-            try:
-                res = sur.predict_vectors(C[use] / r[use, None, None],
-                                          self.volume[use] / r[use]**3,
-                                          model.theta[grains[use, 0]],
-                                          radii=R[use] / r[use, None], bond=bond[use],
-                                          gravity=g_loc[use])
-                part[use] = res["gravity_first_order"] + res["gravity_second_order"]
-            except CapbridgeInputError:
-                part[use] = np.nan
-        bad = ~np.all(np.isfinite(part), axis=(1, 2))
-        above = np.ones(k, bool)
-        above[use] = False
-        # no number: the response's cell touches a gravity node that did not converge
-        # (shipped table: 28 of 405 nodes, theta 0-20 deg at v 0.85-1.25)
-        self.gravity_fallback_reasons["no_response_number"] += int((bad & ~above).sum())
-        self.gravity_fallback_reasons["bond_above_max"] += int(above.sum())
-        bad |= above
-        # the weight is kept, shared equally: V*/(2 pi) b / 3 on each grain (F* of r)
-        b_loc = bond[bad, None] * g_loc[bad] / gn
-        part[bad] = (liquid_weight(self.volume[bad] / r[bad]**3)[:, None]
-                     * b_loc / 3.0)[:, None, :]
-        self.gravity_fallback += int(bad.sum())
-        part *= force_scale(r, self.gamma)[:, None, None]
-        # lookup frame -> scene frame, grain by grain
-        return np.einsum("kji,kgj->kgi", S, np.einsum("kij,kgj->kgi", T, part))
+        res = self.lookup(model, pos, self.grains, self.volume, gravity=True)
+        return res["gravity"] if "gravity" in res else out
 
     # ----------------------------------------------------------------- step
     def step(self, model, pos, geom, report=None, step=0):
@@ -565,7 +572,7 @@ class LiquidClusters:
             self.last = None
             return {"forces": forces, "grains": np.empty(0, np.intp), "geom": geom,
                     "ruptured": 0}
-        res = self.lookup(model, pos, self.grains, self.volume)
+        res = self.lookup(model, pos, self.grains, self.volume, gravity=True)
         ok = np.isin(res["status"], HAS_RESULT)
         energy = ok & (res["lower"] == _SEPARATED)
         geometry = ~ok
@@ -605,8 +612,8 @@ class LiquidClusters:
             for m, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
                 F[:, a] += fv[:, m]
                 F[:, b] -= fv[:, m]
-            if self.gravity is not None:
-                F += self.gravity_forces(model, pos)
+            if "gravity" in res:
+                F += res["gravity"]
             np.add.at(forces, self.grains.ravel(), F.reshape(-1, 3))
             fresh = self.born == step
             fresh[:self.n - merged_from.shape[0]] = False
