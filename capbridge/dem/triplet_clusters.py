@@ -261,7 +261,28 @@ def _new_stats():
     """Counters of how clusters live (:meth:`LiquidClusters.report`, ``"life"``)."""
     return {"cluster_steps": 0, "steps": 0, "lives": [], "merge_jumps": [],
             "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
-            "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0}
+            "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0,
+            **{"refused_" + k: 0 for k in REFUSAL_REASONS}}
+
+
+#: why a coalesced triplet met at a check keeps doublet forces (:meth:`LiquidClusters.
+#: life_summary`)
+REFUSAL_REASONS = {
+    "gaps_or_angle": "a gap or the contact angle outside the table's axes",
+    "volume": "v = V / V_coal outside the table's v axis",
+    "no_result": "a cell without a result (node not converged, no equilibrium)",
+    "separated_lower": "the separated bridges have the lower energy",
+}
+
+
+def _refusal_reasons(res, ok):
+    """Counts of the refused lookups ``~ok`` of :meth:`LiquidClusters.lookup`, by reason."""
+    st, asked = res["status"][~ok], res["asked"][~ok]
+    has = np.isin(st, HAS_RESULT)
+    out_v = asked & np.isin(st, (Status.OUT_OF_RANGE, Status.EXTRAPOLATED))
+    return {"gaps_or_angle": int((~asked).sum()), "volume": int(out_v.sum()),
+            "no_result": int((asked & ~has & ~out_v).sum()),
+            "separated_lower": int((asked & has).sum())}
 
 
 def _bridge_grain_forces(model, geom, grains, members):
@@ -426,8 +447,9 @@ class LiquidClusters:
         grav = self._gravity_request(gravity, sur, d, C, r) if k else None
         # clusters whose gaps (scaled as predict_vectors scales them) or angle are
         # outside the table are OUT_OF_RANGE without a lookup
-        ask = np.flatnonzero(sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
-                                        radii=R / r[:, None]))
+        out["asked"] = sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
+                                  radii=R / r[:, None])
+        ask = np.flatnonzero(out["asked"])
         if grav is not None:
             out["gravity"] = np.full((k, 3, 3), np.nan)
         if ask.size:
@@ -678,6 +700,8 @@ class LiquidClusters:
         refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
         self.stats["triplets_live"] += int(ok.sum())
         self.stats["triplets_refused"] += int((~ok).sum())
+        for reason, n in _refusal_reasons(res, ok).items():
+            self.stats["refused_" + reason] += n
         self.events["merge_refused"] += len(refused - self._refused_keys)
         self._refused_keys = refused
         for k in np.flatnonzero(ok):
@@ -848,7 +872,8 @@ class LiquidClusters:
                 "merge_jump": dist(st["merge_jumps"]), "split_jump": dist(st["split_jumps"]),
                 **{k: int(st[k]) for k in ("triplets_seen", "triplets_live",
                                            "triplets_refused", "triplets_mixed",
-                                           "larger_seen")}}
+                                           "larger_seen")},
+                "refused_by_reason": {k: int(st["refused_" + k]) for k in REFUSAL_REASONS}}
 
     def remap(self, new_index):
         """Grains were erased (``BridgeModel.drop_grains`` returned ``new_index``):
