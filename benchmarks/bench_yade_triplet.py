@@ -49,7 +49,7 @@ def make_mono_packing(n, out):
     by.make_poly_packing(n, out, fuzz=0.0)
 
 
-def run_capbridge(variant, packing, steps, warmup, water_content, table, every):
+def run_capbridge(variant, packing, steps, warmup, water_content, table, every, theta=THETA):
     """One capbridge variant (``on`` / ``off``) on the packing; prints the result line."""
     yade, w, utils = by._yade_env()
     from capbridge.yade import yade_runtime
@@ -57,7 +57,7 @@ def run_capbridge(variant, packing, steps, warmup, water_content, table, every):
 
     O = yade.Omega()
     d = by.load_packing(O, w, utils, packing)
-    cap = CapbridgeEngine(theta=THETA, gamma=by.GAMMA, water_content=water_content,
+    cap = CapbridgeEngine(theta=theta, gamma=by.GAMMA, water_content=water_content,
                           coalescence_every=every, triplet_forces=(variant == "on"),
                           triplet_table=table, label="bench")
     O.engines = [w.ForceResetter(),
@@ -178,7 +178,9 @@ if __name__ == "__main__":
         make_mono_packing(int(sys.argv[2]), sys.argv[3])
     elif len(sys.argv) > 1 and sys.argv[1] == "--run":
         v, packing, steps, warmup, wc, table, every = sys.argv[2:9]
-        run_capbridge(v, packing, int(steps), int(warmup), float(wc), table, int(every))
+        theta = float(sys.argv[9]) if len(sys.argv) > 9 else THETA
+        run_capbridge(v, packing, int(steps), int(warmup), float(wc), table, int(every),
+                      theta)
     elif len(sys.argv) > 1 and sys.argv[1] == "--run-law2":
         packing, files, steps, warmup, suction, factor = sys.argv[2:8]
         by.run_wet_poly("law2", packing, files, int(steps), int(warmup), float(suction),

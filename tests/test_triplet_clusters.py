@@ -359,3 +359,36 @@ def test_engine_refuses_a_damaged_triplet_table_at_construction(tmp_path):
     with pytest.raises(CapbridgeInputError, match="triplet_forces=True but"):
         CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True,
                         triplet_table=bad, label="h7_damaged")
+
+
+def test_a_bridge_formed_inside_a_live_cluster_joins_it(sur, doublets):
+    """A gap of a merged open triangle closes and the model forms the third bridge:
+    its liquid joins the cluster (event ``absorbed``), its doublet force is replaced by
+    the cluster's like the others' (issue 18: seen once in a packing, 0.57 2 pi gamma r
+    counted on top of the cluster's forces for a whole run), the cluster's volume is
+    the three bridges' and the grains get the surrogate's forces at that volume."""
+    g, V = _geometry(sur, 0.0, 1.6)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    # a new bridge gets 5 % of the merged liquid (the two first ones get V / 2 each),
+    # so that the grown cluster stays inside the table's v range
+    m = _model(pos, [(0, 2), (1, 2)], [0.05 * V], 0.0, doublets)
+    m.set_volumes(np.arange(2), np.full(2, V / 2))
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    geom, rep = _check(m, pos)
+    cl.step(m, pos, geom, rep)
+    assert cl.n == 1 and cl.volume[0] == pytest.approx(V, rel=1e-15)
+    pos = pos.copy()
+    d = pos[0] - pos[1]
+    dist = np.linalg.norm(d)
+    pos[1] += d / dist * (dist - 2 * R)                  # grains 0 and 1 in contact
+    geom = m.update(pos)
+    assert geom["formed"] == 1 and m.n_bridges == 3
+    out = cl.step(m, pos, geom, None)
+    assert cl.n == 1 and cl.events["absorbed"] == 1
+    assert (cl.members[0, :, 0] >= 0).all()
+    assert cl.volume[0] == pytest.approx(float(m.vol.sum()), rel=1e-15)
+    assert cl.volume[0] > V * (1 + 1e-3)
+    np.testing.assert_array_equal(out["geom"]["force"], 0.0)
+    ref = sur.predict_vectors(pos / R, cl.volume[0] / R**3, 0.0)
+    F = ref["forces"] * force_scale(R, GAMMA)
+    np.testing.assert_allclose(out["forces"], F, rtol=1e-12, atol=1e-15 * np.abs(F).max())

@@ -111,7 +111,8 @@ def bridge_pairs_on_shared_grains(bi, bj, n_grains):
     return tuple(np.concatenate(x) for x in (out_a, out_b, out_g, out_ea, out_eb))
 
 
-def find_coalescence(pos, bi, bj, beta_i, beta_j, volumes=None, n_grains=None):
+def find_coalescence(pos, bi, bj, beta_i, beta_j, volumes=None, n_grains=None,
+                     pair_vectors=None):
     """Merged bridges by the geometric criterion.
 
     Parameters
@@ -120,6 +121,11 @@ def find_coalescence(pos, bi, bj, beta_i, beta_j, volumes=None, n_grains=None):
     bi, bj : (nb,) grains of every bridge.
     beta_i, beta_j : (nb,) half filling angles [deg] of each bridge on grain bi / bj.
     volumes : (nb,) bridge volumes (for the cluster volumes), optional.
+    pair_vectors : callable, optional
+        ``pair_vectors(pos, i, j)`` -> (m, 3) centre-to-centre vectors i -> j (default
+        ``pos[j] - pos[i]``).  A periodic cell passes its nearest-image vectors
+        (:meth:`~capbridge.dem.bridges.BridgeModel.pair_vectors`): raw differences of
+        two grains across the boundary would give a wrong angle at the shared grain.
     """
     pos = np.asarray(pos, float)
     n_grains = pos.shape[0] if n_grains is None else int(n_grains)
@@ -134,8 +140,10 @@ def find_coalescence(pos, bi, bj, beta_i, beta_j, volumes=None, n_grains=None):
     beta_b = beta_ends[eb, b]
     ja = other_ends[ea, a]
     kb = other_ends[eb, b]
-    u = pos[ja] - pos[g]
-    v = pos[kb] - pos[g]
+    if pair_vectors is None:
+        u, v = pos[ja] - pos[g], pos[kb] - pos[g]
+    else:
+        u, v = pair_vectors(pos, g, ja), pair_vectors(pos, g, kb)
     cosang = np.einsum("ij,ij->i", u, v) / (np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1))
     angle = np.degrees(np.arccos(np.clip(cosang, -1.0, 1.0)))
     margin = beta_a + beta_b - angle

@@ -79,7 +79,6 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import force_scale
-from capbridge.physics.gravity import liquid_weight
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -103,6 +102,9 @@ EVENTS = {
                      "merges or its caps part)",
     "dissolved": "clusters whose bridge ruptured by the doublet rule or left with an "
                  "erased grain",
+    "absorbed": "bridges formed between two grains of a live cluster after its merge: "
+                "their liquid joins the cluster (no doublet force on top of the "
+                "cluster's)",
 }
 
 _SEPARATED = 1                # LOWER_ENERGY_STATES code of "separated"
@@ -255,6 +257,55 @@ def set_bridge_volumes(model, rows, volumes):
     model.set_volumes(rows, volumes)
 
 
+def _new_stats():
+    """Counters of how clusters live (:meth:`LiquidClusters.report`, ``"life"``)."""
+    return {"cluster_steps": 0, "steps": 0, "lives": [], "merge_jumps": [],
+            "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
+            "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0,
+            **{"refused_" + k: 0 for k in REFUSAL_REASONS}}
+
+
+#: why a coalesced triplet met at a check keeps doublet forces (:meth:`LiquidClusters.
+#: life_summary`)
+REFUSAL_REASONS = {
+    "gaps_or_angle": "a gap or the contact angle outside the table's axes",
+    "volume": "v = V / V_coal outside the table's v axis",
+    "no_result": "a cell without a result (node not converged, no equilibrium)",
+    "separated_lower": "the separated bridges have the lower energy",
+}
+
+
+def _refusal_reasons(res, ok):
+    """Counts of the refused lookups ``~ok`` of :meth:`LiquidClusters.lookup`, by reason."""
+    st, asked = res["status"][~ok], res["asked"][~ok]
+    has = np.isin(st, HAS_RESULT)
+    out_v = asked & np.isin(st, (Status.OUT_OF_RANGE, Status.EXTRAPOLATED))
+    return {"gaps_or_angle": int((~asked).sum()), "volume": int(out_v.sum()),
+            "no_result": int((asked & ~has & ~out_v).sum()),
+            "separated_lower": int((asked & has).sum())}
+
+
+def _bridge_grain_forces(model, geom, grains, members):
+    """(k, 3, 3) doublet forces [N] of the bridges ``members`` (k, 3, 2; -1 padded) on
+    the grains ``grains`` (k, 3) of each cluster: what the cluster's liquid gave those
+    grains as separate bridges (attraction along the centre lines)."""
+    k = grains.shape[0]
+    out = np.zeros((k, 3, 3))
+    rows = LiquidClusters._rows(model, members.reshape(-1, 2)).reshape(k, 3)
+    for c, m in np.argwhere(rows >= 0):
+        b = rows[c, m]
+        fv = geom["d"][b] * (geom["force"][b] / geom["dist"][b])
+        out[c, grains[c] == model.bi[b]] += fv
+        out[c, grains[c] == model.bj[b]] -= fv
+    return out
+
+
+def _jumps(before, after, r, gamma):
+    """Largest change of a grain's force per cluster, in units of 2 pi gamma r."""
+    return (np.linalg.norm(after - before, axis=-1).max(axis=1)
+            / force_scale(r, gamma)).tolist()
+
+
 class LiquidClusters:
     """Coalesced triplets of a packing: merge, triplet forces, split (module docstring).
 
@@ -301,6 +352,11 @@ class LiquidClusters:
         #: drho [kg/m^3]) or None (:meth:`gravity_forces`)
         self.gravity = None
         self.gravity_fallback = 0
+        #: why clusters got the equal weight share (:meth:`gravity_forces`)
+        self.gravity_fallback_reasons = {"table_has_no_response": 0, "bond_above_max": 0,
+                                         "no_response_number": 0}
+        self._now = 0
+        self.stats = _new_stats()
 
     def _clear(self):
         self.grains = np.empty((0, 3), np.intp)        # sorted grain triple per cluster
@@ -308,6 +364,7 @@ class LiquidClusters:
         self.volume = np.empty(0)                      # cluster liquid [m^3]
         self.born = np.empty(0, np.intp)
         self.approx = np.empty(0, bool)
+        self.last_forces = np.empty((0, 3, 3))         # grain forces last step [N]
 
     # ------------------------------------------------------------------ the table
     @property
@@ -355,14 +412,19 @@ class LiquidClusters:
         rows = self._rows(model, self.members.reshape(-1, 2))
         return rows[rows >= 0]
 
-    def lookup(self, model, pos, grains, volume):
+    def lookup(self, model, pos, grains, volume, gravity=False):
         """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
 
         Gaps below zero (grains in contact overlap in a DEM) are taken as contact, as
         the doublet bridges do.  Returns a dict: ``f`` (k, 3) pair forces [N] in the
         order (0,1), (0,2), (1,2) of each triple (attraction > 0), ``status`` (k,),
         ``lower`` (k,) lower-energy-state codes, ``u`` (k, 3, 3) unit vectors of the
-        pairs (actual centre lines), ``gaps`` (k, 3) [m].
+        pairs (actual centre lines), ``gaps`` (k, 3) [m].  With ``gravity`` (and
+        :attr:`gravity` set), the same lookup also gives ``gravity`` (k, 3, 3): the
+        gravity parts of the grain forces [N] in the scene frame
+        (:meth:`gravity_forces`); ``status`` stays the answer without gravity (a
+        cluster whose gravity response has no number keeps its forces, with the
+        weight shared equally, counted).
         """
         t0 = time.perf_counter()
         sur = self.surrogate()
@@ -382,32 +444,89 @@ class LiquidClusters:
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
+        grav = self._gravity_request(gravity, sur, d, C, r) if k else None
         # clusters whose gaps (scaled as predict_vectors scales them) or angle are
         # outside the table are OUT_OF_RANGE without a lookup
-        ask = np.flatnonzero(sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
-                                        radii=R / r[:, None]))
+        out["asked"] = sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
+                                  radii=R / r[:, None])
+        ask = np.flatnonzero(out["asked"])
+        if grav is not None:
+            out["gravity"] = np.full((k, 3, 3), np.nan)
         if ask.size:
+            kw = {} if grav is None else {"bond": grav["bond"][ask],
+                                          "gravity": grav["local"][ask]}
             try:
                 res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
-                                          theta[ask], radii=R[ask] / r[ask, None])
+                                          theta[ask], radii=R[ask] / r[ask, None], **kw)
             except CapbridgeInputError:
                 if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
                     for c in ask:
-                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1])
-                        for key in ("f", "status", "lower"):
-                            out[key][c] = one[key][0]
+                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1],
+                                          gravity)
+                        for key in ("f", "status", "lower", "gravity"):
+                            if key in out:
+                                out[key][c] = one[key][0]
             else:
                 fs = force_scale(r[ask], self.gamma)
                 out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
                     fs[:, None]
-                out["status"][ask] = res["status"]
+                out["status"][ask] = res.get("status_without_gravity", res["status"])
                 out["lower"][ask] = res["lower_energy_state"]
+                if grav is not None:
+                    part = res["gravity_first_order"] + res["gravity_second_order"]
+                    part[grav["bond"][ask] == 0.0] = np.nan     # Bo above the table's
+                    out["gravity"][ask] = np.einsum(
+                        "kji,kgj->kgi", grav["S"][ask],
+                        np.einsum("kij,kgj->kgi", grav["T"][ask], part)) * fs[:, None, None]
+        if grav is not None:
+            out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume, r)
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
 
+    def _gravity_request(self, gravity, sur, d, C, r):
+        """What the lookup needs for gravity on the clusters' liquid, or None (no
+        gravity, or a table without a response: then :meth:`_gravity_fallback` is not
+        needed either, the forces are the zero-gravity ones, counted)."""
+        from capbridge.surrogate.doublet import BOND_MAX
+
+        if not gravity or self.gravity is None:
+            return None
+        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+        gn = float(np.linalg.norm(g_vec))
+        if gn == 0.0 or drho == 0.0:
+            return None
+        k = d.shape[0]
+        if not getattr(sur, "has_gravity_", False):
+            self.gravity_fallback += k
+            self.gravity_fallback_reasons["table_has_no_response"] += k
+            return None
+        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
+        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
+        local = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec)) / gn
+        bond = drho * gn * r**2 / self.gamma
+        above = bond > BOND_MAX
+        return {"S": S, "T": T, "local": local, "bond": np.where(above, 0.0, bond),
+                "bond_all": bond, "above": above}
+
+    def _gravity_fallback(self, part, grav, volume, r):
+        """Clusters whose gravity response has no number (a cell touching a gravity
+        node that did not converge: in the shipped table 28 of 405 nodes, theta 0-20
+        deg at v 0.85-1.25) or whose Bo is above the table's get the liquid's weight
+        shared equally by their three grains (the first-order answer for three equal
+        grains in an equilateral triangle), counted by reason."""
+        bad = ~np.all(np.isfinite(part), axis=(1, 2))
+        self.gravity_fallback_reasons["no_response_number"] += int((bad & ~grav["above"]).sum())
+        self.gravity_fallback_reasons["bond_above_max"] += int(grav["above"].sum())
+        self.gravity_fallback += int(bad.sum())
+        if bad.any():
+            g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
+            weight = drho * volume[bad, None] * g_vec             # [N], the liquid's weight
+            part[bad] = (weight / 3.0)[:, None, :]
+        return part
+
     def gravity_forces(self, model, pos):
-        """Gravity parts of the clusters' grain forces [N], (k, 3, 3) [cluster, grain,
-        xyz] in the scene frame.
+        """Gravity parts of the live clusters' grain forces [N], (k, 3, 3) [cluster,
+        grain, xyz] in the scene frame.
 
         With g and drho from :attr:`gravity` and b = Bo g_hat (Bo = drho |g| r^2 /
         gamma, r the cluster's smallest radius), the triplet table's response
@@ -419,60 +538,17 @@ class LiquidClusters:
         as contact), rotated into the scene by the frame of the grains' centre lines
         (grain 0 -> 1 and the plane of the three).  A cluster whose Bo is above the
         surrogate's ``BOND_MAX`` or whose response has no number there gets the
-        liquid's weight shared equally by its three grains (the first-order answer for
-        three equal grains in an equilateral triangle; counted in
-        :attr:`gravity_fallback`); zero for a table without a gravity response.
+        liquid's weight shared equally by its three grains (:meth:`_gravity_fallback`,
+        counted in :attr:`gravity_fallback` and by reason in
+        :attr:`gravity_fallback_reasons`); zero for a table without a gravity response.
+        The engine's step gets these parts from its one lookup per step
+        (:meth:`lookup` with ``gravity=True``); this method is that lookup's part.
         """
-        from capbridge.surrogate.doublet import BOND_MAX
-
-        k = self.n
-        out = np.zeros((k, 3, 3))
-        if self.gravity is None or not k:
+        out = np.zeros((self.n, 3, 3))
+        if not self.n:
             return out
-        g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
-        gn = float(np.linalg.norm(g_vec))
-        sur = self.surrogate()
-        if gn == 0.0 or drho == 0.0:
-            return out
-        if not getattr(sur, "has_gravity_", False):
-            self.gravity_fallback += k
-            return out
-        grains = self.grains
-        R = model.radii[grains]
-        P = ((0, 1), (0, 2), (1, 2))
-        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
-        dist = np.linalg.norm(d, axis=-1)
-        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
-        g = np.maximum(gaps, 0.0)
-        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
-        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
-        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
-        T = _frame(C[:, 1] - C[:, 0], C[:, 2] - C[:, 0])    # lookup geometry
-        g_loc = np.einsum("kji,kj->ki", T, np.einsum("kij,j->ki", S, g_vec))
-        r = R.min(axis=1)
-        bond = drho * gn * r**2 / self.gamma
-        use = np.flatnonzero(bond <= BOND_MAX)
-        part = np.zeros((k, 3, 3))
-        if use.size:
-            try:
-                res = sur.predict_vectors(C[use] / r[use, None, None],
-                                          self.volume[use] / r[use]**3,
-                                          model.theta[grains[use, 0]],
-                                          radii=R[use] / r[use, None], bond=bond[use],
-                                          gravity=g_loc[use])
-                part[use] = res["gravity_first_order"] + res["gravity_second_order"]
-            except CapbridgeInputError:
-                part[use] = np.nan
-        bad = ~np.all(np.isfinite(part), axis=(1, 2))
-        bad[np.setdiff1d(np.arange(k), use)] = True
-        # the weight is kept, shared equally: V*/(2 pi) b / 3 on each grain (F* of r)
-        b_loc = bond[bad, None] * g_loc[bad] / gn
-        part[bad] = (liquid_weight(self.volume[bad] / r[bad]**3)[:, None]
-                     * b_loc / 3.0)[:, None, :]
-        self.gravity_fallback += int(bad.sum())
-        part *= force_scale(r, self.gamma)[:, None, None]
-        # lookup frame -> scene frame, grain by grain
-        return np.einsum("kji,kgj->kgi", S, np.einsum("kij,kgj->kgi", T, part))
+        res = self.lookup(model, pos, self.grains, self.volume, gravity=True)
+        return res["gravity"] if "gravity" in res else out
 
     # ----------------------------------------------------------------- step
     def step(self, model, pos, geom, report=None, step=0):
@@ -500,31 +576,52 @@ class LiquidClusters:
             volumes, else ``geom``), ``ruptured`` bridges ruptured by that update.
         """
         ruptured = 0
+        self._now = step
         if self.n:
             self._drop_lost(model)
+            self._absorb(model)
+        merged0 = self.events["merged"]
         if report is not None and report.n_triplets:
             self._merge(model, pos, report, step)
         elif report is not None:
             self._note_funicular([])
+        n_before = self.n - (self.events["merged"] - merged0)     # new ones are last
+        # the bridges' forces on the grains of the new clusters, for the jump at merge
+        merged_from = _bridge_grain_forces(model, geom, self.grains[n_before:],
+                                           self.members[n_before:])
         forces = np.zeros((model.n, 3))
         if not self.n:
             self.last = None
             return {"forces": forces, "grains": np.empty(0, np.intp), "geom": geom,
                     "ruptured": 0}
-        res = self.lookup(model, pos, self.grains, self.volume)
+        res = self.lookup(model, pos, self.grains, self.volume, gravity=True)
         ok = np.isin(res["status"], HAS_RESULT)
         energy = ok & (res["lower"] == _SEPARATED)
         geometry = ~ok
         if geometry.any() or energy.any():
             self.events["split_geometry"] += int(geometry.sum())
             self.events["split_energy"] += int(energy.sum())
-            changed = self._split(model, pos, np.flatnonzero(geometry | energy))
+            which = np.flatnonzero(geometry | energy)
+            gone = {"grains": self.grains[which], "members": self.members[which],
+                    "forces": self.last_forces[which]}
+            new = np.zeros(self.n, bool)
+            new[n_before:] = True
+            merged_from = merged_from[~np.isin(np.flatnonzero(new), which)]
+            changed = self._split(model, pos, which)
             if changed:
                 touched = model._touched.copy()
                 n0 = model.ledger["ruptured_count"]
                 geom = model.update(pos, step=step, form=False)
                 model._touched = np.concatenate([touched, model._touched])
                 ruptured = model.ledger["ruptured_count"] - n0
+            # jump at split: the cluster's forces of the step before (none for a
+            # cluster split in its merge step) -> its bridges' forces now
+            was = np.isfinite(gone["forces"]).all(axis=(1, 2)) & ~new[which]
+            if was.any():
+                self.stats["split_jumps"] += _jumps(
+                    gone["forces"][was], _bridge_grain_forces(
+                        model, geom, gone["grains"][was], gone["members"][was]),
+                    model.radii[gone["grains"][was]].min(axis=1), self.gamma)
             # the surviving clusters' bridges kept their volumes and gaps: the update
             # cannot have ruptured them
             keep = ok & ~energy
@@ -537,9 +634,17 @@ class LiquidClusters:
             for m, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
                 F[:, a] += fv[:, m]
                 F[:, b] -= fv[:, m]
-            if self.gravity is not None:
-                F += self.gravity_forces(model, pos)
+            if "gravity" in res:
+                F += res["gravity"]
             np.add.at(forces, self.grains.ravel(), F.reshape(-1, 3))
+            fresh = self.born == step
+            fresh[:self.n - merged_from.shape[0]] = False
+            if fresh.any():
+                self.stats["merge_jumps"] += _jumps(
+                    merged_from, F[fresh], model.radii[self.grains[fresh]].min(axis=1),
+                    self.gamma)
+            self.last_forces = F
+        self.stats["cluster_steps"] += self.n
         self.last = {"status": res["status"], "f": res["f"], "gaps": res["gaps"]}
         return {"forces": forces, "grains": np.unique(self.grains), "geom": geom,
                 "ruptured": ruptured}
@@ -569,9 +674,14 @@ class LiquidClusters:
             for g, rw, mx in zip(T, rows, mixed):
                 b = rw[rw >= 0]
                 pairs = [(int(bi[x]), int(bj[x])) for x in b]
-                if mx or any(p in have for p in pairs):
-                    continue                          # mixed angles, or already merged
-                cand.append((g, pairs, float(model.vol[b].sum())))
+                self.stats["triplets_seen"] += 1
+                if mx:
+                    self.stats["triplets_mixed"] += 1
+                elif any(p in have for p in pairs):
+                    self.stats["triplets_live"] += 1          # already merged
+                else:
+                    cand.append((g, pairs, float(model.vol[b].sum())))
+        self.stats["larger_seen"] += len(funicular)
         self._note_funicular(funicular)
         if funicular and self.n:
             # merged triplets whose bridges joined a funicular cluster: released to
@@ -588,6 +698,10 @@ class LiquidClusters:
         ok = np.isin(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
         # refused triplets are counted once, not at every check while they stay refused
         refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
+        self.stats["triplets_live"] += int(ok.sum())
+        self.stats["triplets_refused"] += int((~ok).sum())
+        for reason, n in _refusal_reasons(res, ok).items():
+            self.stats["refused_" + reason] += n
         self.events["merge_refused"] += len(refused - self._refused_keys)
         self._refused_keys = refused
         for k in np.flatnonzero(ok):
@@ -600,8 +714,26 @@ class LiquidClusters:
             self.volume = np.append(self.volume, v)
             self.born = np.append(self.born, step)
             self.approx = np.append(self.approx, approx)
+            self.last_forces = np.concatenate([self.last_forces, np.full((1, 3, 3), np.nan)])
             self.events["merged"] += 1
             self.events["approximate"] += int(approx)
+
+    def _absorb(self, model):
+        """A bridge that formed between two grains of a live cluster (a gap closed
+        after the merge) is part of the coalesced body: it joins the cluster's members
+        and its volume the cluster's liquid, so its doublet force is not added to the
+        cluster's forces (the liquid would be counted twice)."""
+        T = self.grains
+        pairs = np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]], 1)
+        rows = self._rows(model, pairs.reshape(-1, 2)).reshape(-1, 3)
+        have = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
+        new = (rows >= 0) & ~(rows[:, :, None] == have[:, None, :]).any(axis=2)
+        for c, m in np.argwhere(new):
+            b = rows[c, m]
+            slot = int(np.flatnonzero(self.members[c, :, 0] < 0)[0])
+            self.members[c, slot] = (model.bi[b], model.bj[b])
+            self.volume[c] += model.vol[b]
+            self.events["absorbed"] += 1
 
     def _note_funicular(self, funicular):
         """Count new >= 4-grain clusters (once each) and keep the current ones' sizes."""
@@ -616,9 +748,11 @@ class LiquidClusters:
     # ----------------------------------------------------------------- split
     def _remove(self, mask):
         keep = ~np.asarray(mask, bool)
+        self.stats["lives"] += (self._now - self.born[~keep]).tolist()
         self.grains, self.members = self.grains[keep], self.members[keep]
         self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
             self.approx[keep]
+        self.last_forces = self.last_forces[keep]
 
     def _drop_lost(self, model):
         """Clusters whose bridge is gone (doublet rupture, erased grain): dissolved."""
@@ -710,9 +844,36 @@ class LiquidClusters:
                "timings": dict(self.timings)}
         out["born"] = self.born.tolist()            # DEM step of each cluster's merge
         out["gravity_fallback"] = self.gravity_fallback
+        out["gravity_fallback_reasons"] = dict(self.gravity_fallback_reasons)
+        out["life"] = self.life_summary()
         if self.last is not None and self.n:
             out["statuses"] = [Status(int(s)).name.lower() for s in self.last["status"]]
         return out
+
+    def life_summary(self):
+        """How the clusters lived: cluster-steps, lives of the ended clusters (steps),
+        the largest change of a grain's force at merge and at split (units of
+        2 pi gamma r: median, p90, max), and the coalesced triplets met at the checks:
+        answered by the table (merged or alive), refused (out of the table, no result,
+        separated lower: doublet forces kept), of mixed angles; clusters of four
+        grains or more met at the checks."""
+        st = self.stats
+
+        def dist(x):
+            x = np.asarray(x, float)
+            if not x.size:
+                return {"n": 0}
+            return {"n": int(x.size), "median": float(np.median(x)),
+                    "p90": float(np.percentile(x, 90)), "max": float(x.max())}
+
+        alive = (self._now - self.born).tolist()
+        return {"cluster_steps": int(st["cluster_steps"]),
+                "ended_lives": dist(st["lives"]), "alive_ages": dist(alive),
+                "merge_jump": dist(st["merge_jumps"]), "split_jump": dist(st["split_jumps"]),
+                **{k: int(st[k]) for k in ("triplets_seen", "triplets_live",
+                                           "triplets_refused", "triplets_mixed",
+                                           "larger_seen")},
+                "refused_by_reason": {k: int(st["refused_" + k]) for k in REFUSAL_REASONS}}
 
     def remap(self, new_index):
         """Grains were erased (``BridgeModel.drop_grains`` returned ``new_index``):
@@ -744,6 +905,7 @@ class LiquidClusters:
         self.volume = np.asarray(st["volume"], float).ravel()
         self.born = np.asarray(st["born"], np.intp).ravel()
         self.approx = np.asarray(st["approx"], bool).ravel()
+        self.last_forces = np.full((self.volume.size, 3, 3), np.nan)
         self.events.update({k: int(v) for k, v in st["events"].items()})
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}

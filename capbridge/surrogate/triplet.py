@@ -969,7 +969,8 @@ class TripletSurrogate(SurrogateBase):
             the largest of the cell's nodes) and the second-order terms.  Extra keys:
             ``gravity`` (..., 3) = b, ``gravity_first_order`` and
             ``gravity_second_order`` (..., 3, 3) the two terms added to F_i(0),
-            ``gravity_sum_residual``.  Statuses: a cell of the response without a result
+            ``gravity_sum_residual``, ``status_without_gravity`` (the status of
+            F_i(0)).  Statuses: a cell of the response without a result
             -> NOT_CONVERGED, no number; v outside the response's ``gravity_v`` range ->
             the response at the nearest v, APPROXIMATE; Bo above the validated
             ``gravity_bond_max_`` -> APPROXIMATE.  Bo above :data:`BOND_MAX` or a table
@@ -1072,6 +1073,9 @@ class TripletSurrogate(SurrogateBase):
         second = np.zeros(shape + (3, 3))
         resid = np.zeros(shape)
         status = np.array(res["status"], np.int8)
+        # the answer without gravity, for callers that fall back on their own where
+        # the response has no number (the DEM engine: the liquid's weight shared)
+        res["status_without_gravity"] = status.copy()
         on = bo > 0
         if on.any():
             s = np.broadcast_to(s, shape)[on]

@@ -471,12 +471,6 @@ class CapbridgeEngine:
         self._cell, self.walls = scene_geometry.setup(O, self.model, sphere_theta, bodies,
                                                       wall_theta)
         self._cell_drift, self._cell_rebuilds = 0.0, -1
-        if self._cell is not None and self.coalescence:
-            # coalescence_detect reads raw centres: a bridge across the boundary would
-            # give a wrong angle, so the check is off (never a wrong cluster)
-            self.coalescence = False
-            self._say("warning", f"capbridge {self.label!r}: periodic cell: coalescence "
-                      "detection is off (it does not yet use nearest-image vectors)")
         if self.walls is not None:
             self.register_state("walls", self.walls.get_state, self.walls.set_state)
             self._say("info", f"capbridge {self.label!r}: {len(bodies)} wall partners, "
@@ -759,7 +753,8 @@ class CapbridgeEngine:
             rep = find_coalescence(pos, m.bi, m.bj, np.empty(0), np.empty(0), m.vol, m.n)
         else:
             bi_ang, bj_ang = m.filling_angles(gap)
-            rep = find_coalescence(pos, m.bi, m.bj, bi_ang, bj_ang, m.vol, m.n)
+            rep = find_coalescence(pos, m.bi, m.bj, bi_ang, bj_ang, m.vol, m.n,
+                                   pair_vectors=m.pair_vectors)
         s = rep.summary()
         s["checks"] = self._coal_summary["checks"]
         s["iter"] = self._iter()
