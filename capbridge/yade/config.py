@@ -4,7 +4,7 @@ The engine's 28 keywords, grouped by what they decide::
 
     from capbridge.yade.config import WaterContent, Coalescence, Speed
     cap = CapbridgeEngine(theta=20, gamma=0.073, liquid=WaterContent(0.01),
-                          coalescence=Coalescence(every=100),
+                          coalescence=Coalescence(every=10),
                           speed=Speed(refresh_every=10))
 
 =========================  ==========================================================
@@ -125,7 +125,7 @@ ENGINE_PARAMETERS = {
                                "'exact' (equal pressure, exact doublets, seconds per "
                                "split) or 'merge_volumes' (the bridges' volumes at the "
                                "merge, no solve)"),
-    "coalescence_every": (100, "steps between coalescence checks"),
+    "coalescence_every": (10, "steps between coalescence checks"),
     "table": (None, "doublet table (path, Dataset or DoubletSurrogate); default the shipped "
                     "data/doublet_table.nc"),
     "ids": (None, "body ids of the wet spheres (default every sphere)"),
@@ -291,7 +291,7 @@ class Coalescence(_Group):
     _check = staticmethod(eo.check_coalescence)
     slot = "coalescence"
     enabled: bool = _flat_field("coalescence", True)
-    every: int = _flat_field("coalescence_every", 100)
+    every: int = _flat_field("coalescence_every", 10)
     triplet_forces: bool | None = _flat_field("triplet_forces", False)
     triplet_table: Any = _flat_field("triplet_table", None)
     triplet_split: str = _flat_field("triplet_split", "table")

@@ -161,7 +161,7 @@ class CapbridgeEngine:
     Made from keyword groups (:mod:`capbridge.yade.config`)::
 
         CapbridgeEngine(theta=20, gamma=0.073, liquid=WaterContent(0.01),
-                        coalescence=Coalescence(every=100), speed=Speed(refresh_every=10))
+                        coalescence=Coalescence(every=10), speed=Speed(refresh_every=10))
 
     ``liquid`` one of ``BridgeVolume``, ``BridgeVolumeStar``, ``LiquidVolume``,
     ``WaterContent``, ``Saturation``; ``formation`` a ``Formation``, ``bodies`` a
@@ -208,7 +208,7 @@ class CapbridgeEngine:
                  liquid_density=None, conserve_liquid=None, film_fraction=0.5,
                  formation_gap=0.0, initial_wet_gap=None, initial_pairs=None, refresh_every=1,
                  force_tolerance=0.0, coalescence=True,
-                 coalescence_every=100, table=None, ids=None, skin=None, ratio_step=0.01,
+                 coalescence_every=10, table=None, ids=None, skin=None, ratio_step=0.01,
                  label="capbridge", triplet_forces=False, triplet_table=None, walls=False,
                  triplet_split="table", gravity_correction="auto", liquid=None,
                  formation=None, bodies=None, gravity=None, speed=None):

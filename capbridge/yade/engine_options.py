@@ -205,7 +205,7 @@ def check_options(*, theta=0.0, gamma=0.073, bridge_volume=None, bridge_volume_s
                   sample_volume=None, liquid_density=None, conserve_liquid=None,
                   film_fraction=0.5, formation_gap=0.0, initial_wet_gap=None,
                   initial_pairs=None, refresh_every=1, force_tolerance=0.0,
-                  coalescence=True, coalescence_every=100, table=None, ids=None, skin=None,
+                  coalescence=True, coalescence_every=10, table=None, ids=None, skin=None,
                   ratio_step=0.01, label="capbridge", triplet_forces=False,
                   triplet_table=None, walls=False, triplet_split="table",
                   gravity_correction="auto"):
@@ -377,7 +377,7 @@ def check_speed(*, refresh_every=1, force_tolerance=0.0, skin=None, ratio_step=0
     return out
 
 
-def check_coalescence(*, coalescence=True, coalescence_every=100, triplet_forces=False,
+def check_coalescence(*, coalescence=True, coalescence_every=10, triplet_forces=False,
                       triplet_table=None, triplet_split="table"):
     """Coalescence detection and coalesced triplets (the triplet table itself is read
     by :func:`check_triplet_table` when the engine is made)."""
