@@ -166,7 +166,7 @@ class SceneTable:
     def _build(self, values):
         """values: (ratio, theta, volume[, s]) coarse -> (theta, node, vfine[, sfine]),
         with the surrogate's own cubic refinement along each axis."""
-        from capbridge.surrogate.doublet import refine_axis
+        from capbridge.surrogate.grid import refine_axis
 
         sur = self.surrogate
         lo, hi, w = self._theta_weights()
@@ -197,7 +197,7 @@ class SceneTable:
         (:func:`~capbridge.dem.mixed_angles.exact_coarse`) refined like the
         table's.  Returns name -> list of (1, node, vfine[, sfine]) arrays."""
         from capbridge.dem.mixed_angles import exact_coarse
-        from capbridge.surrogate.doublet import refine_axis
+        from capbridge.surrogate.grid import refine_axis
 
         sur = self.surrogate
         out = {name: [] for name in self.variables + ("rupture_gap",)}

@@ -1,8 +1,10 @@
 """One grid kernel for the surrogates and the DEM engine's lookups.
 
-Everything that locates a point on a fine grid and interpolates there lives here (it
-was written once per user before):
+Everything that fills a fine grid from a table's coarse one, locates a point on it and
+interpolates there lives here (it was written once per user before):
 
+* :func:`refine_axis`: splines along one axis from the coarse nodes to the fine ones
+  (the doublet's, the triplet's and the DEM scene tables' fine grids);
 * :class:`UniformAxis`: a uniform axis, index and weight by arithmetic (the doublet's
   theta, log V* and s axes; :class:`~capbridge.dem.bridges.SceneTable` reads them);
 * :class:`FineAxis`: ``refine`` equal steps per interval of a coarse, possibly
@@ -25,10 +27,21 @@ numbers bit for bit.
 from __future__ import annotations
 
 import numpy as np
+from scipy.interpolate import make_interp_spline
 
-__all__ = ["UniformAxis", "FineAxis", "bilinear", "trilinear", "bilinear_flat",
+__all__ = ["refine_axis", "UniformAxis", "FineAxis", "bilinear", "trilinear", "bilinear_flat",
            "rows_linear", "profile_value", "Grid", "Descending", "corner_offsets",
            "corner_weights"]
+
+
+def refine_axis(values, axis, coarse, fine, degree=None):
+    """Spline ``values`` along ``axis`` from the ``coarse`` to the ``fine`` nodes.
+
+    ``degree`` None: cubic, or the highest degree the nodes allow below 4 nodes (the
+    surrogates' refinement); 1: linear (the triplet's "cubic_tv" gaps).
+    """
+    k = (3 if len(coarse) >= 4 else len(coarse) - 1) if degree is None else degree
+    return make_interp_spline(coarse, values, k=k, axis=axis)(fine)
 
 
 class UniformAxis:
