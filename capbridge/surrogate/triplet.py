@@ -60,9 +60,10 @@ Where the parts live
 :mod:`capbridge.surrogate.triplet_nodes` reads the table's nodes (values, statuses,
 failed nodes filled, symmetrised over the grain relabellings);
 :mod:`capbridge.surrogate.grid` is the fine grid (refinement, axes, simplex kernel);
-:mod:`capbridge.surrogate.triplet_holdout` the held-out errors (:func:`holdout_errors`,
-:func:`gravity_holdout_errors`); :func:`~capbridge.solvers.triplet.table_frame` the
-table frame of a triangle of centres.
+:mod:`capbridge.surrogate.triplet_gravity` the response to gravity (a mixin of
+:class:`TripletSurrogate`); :mod:`capbridge.surrogate.triplet_holdout` the held-out
+errors (:func:`holdout_errors`, :func:`gravity_holdout_errors`);
+:func:`~capbridge.solvers.triplet.table_frame` the table frame of a triangle of centres.
 
 References
 ----------
@@ -74,26 +75,27 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from capbridge.physics.gravity import BOND_MAX, check_bond, gravity_vector, liquid_weight
-from capbridge.solvers.triplet import table_frame
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import Status
 from capbridge.surrogate.base import SurrogateBase
 from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, si_bond
 from capbridge.surrogate.grid import Descending as _Descending
 from capbridge.surrogate.grid import FineAxis as _FineAxis
 from capbridge.surrogate.grid import Grid as _Grid
 from capbridge.surrogate.grid import refine_axis
-from capbridge.surrogate.triplet_holdout import (gravity_holdout_errors, holdout_errors,
-                                                 holdout_points)
+from capbridge.surrogate.triplet_gravity import TripletGravityResponse
+from capbridge.surrogate.triplet_holdout import holdout_errors, holdout_points
 from capbridge.surrogate.triplet_nodes import (GRID_VARIABLES, PAIR_NAMES, PAIRS, cell_max,
                                                fill_failed, node_data, symmetrise)
-# UNEQUAL_RADII_ERROR and UNEQUAL_SCHEMES: part of this module's public names since before
-# the unequal-radii scaling had its own module
-from capbridge.surrogate.triplet_unequal import (UNEQUAL_RADII_ERROR, UNEQUAL_SCHEMES,
-                                                 combine_status, unequal_scales)
+from capbridge.surrogate.triplet_unequal import combine_status, unequal_scales
 from capbridge.tables import DATA_DIR
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
+# this module's public names from before its parts had their own modules (issue 17)
+from capbridge.physics.gravity import BOND_MAX
+from capbridge.solvers.triplet import table_frame
+from capbridge.status import HAS_RESULT
+from capbridge.surrogate.triplet_holdout import gravity_holdout_errors
+from capbridge.surrogate.triplet_unequal import UNEQUAL_RADII_ERROR, UNEQUAL_SCHEMES
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
            "LOWER_ENERGY_STATES", "PAIR_NAMES", "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES",
@@ -174,7 +176,7 @@ def _refine3(refine):
                            hint="fine-grid steps per table interval") for x in r)
 
 
-class TripletSurrogate(SurrogateBase):
+class TripletSurrogate(TripletGravityResponse, SurrogateBase):
     """Interpolating surrogate of a coalesced-triplet table (fit / predict).
 
     Follows the surrogate contract of :mod:`capbridge.surrogate.base` (NotFittedError,
@@ -672,103 +674,6 @@ class TripletSurrogate(SurrogateBase):
                 "'extrapolated'; below it: no number) or Surface Evolver (capbridge "
                 "solve triplet)")
 
-    # ---------------------------------------------------------------------- gravity
-    def _fit_gravity(self, ds):
-        """The table's response to gravity (if any) and its held-out validation.
-
-        ``force_gravity_gradient`` G and ``force_gravity_curvature`` C (table frame of
-        each node, :mod:`capbridge.tables.triplet_gravity`) are divided by the
-        node's liquid weight W_node = v V*_coal / (2 pi) and interpolated multilinearly
-        on the raw (d12, d13, d23, theta, gravity_v) grid (the simplex kernel is 2.6x
-        faster but its held-out error is 15 % larger at Bo = 1); a lookup multiplies them by
-        the weight W = V*/(2 pi) of the asked volume.  Written so, sum_i G_i = W I holds
-        at every point to the largest ``gravity_sum_residual`` of the cell's nodes
-        (multilinear weights are a convex combination), also between nodes where
-        v V*_coal is not multilinear, and clipping v to the response's range keeps the
-        grains' shares of the weight.
-        """
-        self.has_gravity_ = "force_gravity_gradient" in ds
-        self.gravity_bond_max_ = 0.0
-        self.gravity_errors_ = None
-        if not self.has_gravity_:
-            return
-        dims = ("d12", "d13", "d23", "theta", "gravity_v")
-        tdims = dims + ("grain", "component", "gravity_component")
-        G = np.asarray(ds["force_gravity_gradient"].transpose(*tdims).values, float)
-        C = np.asarray(ds["force_gravity_curvature"].transpose(*tdims).values, float)
-        st = np.asarray(ds["gravity_status"].transpose(*dims).values)
-        res = np.asarray(ds["gravity_sum_residual"].transpose(*dims).values, float)
-        gv = np.asarray(ds["gravity_v"].values, float)
-        Vc = np.asarray(ds["volume_coalescence"].transpose(*dims[:4]).values, float)
-        W = liquid_weight(Vc[..., None] * gv)
-        ok = np.isin(st, [int(x) for x in HAS_RESULT]) & np.isfinite(W) & (W > 0) & \
-            np.isfinite(G).all((-3, -2, -1)) & np.isfinite(C).all((-3, -2, -1)) & \
-            np.isfinite(res)
-        Wn = np.where(ok, W, 1.0)[..., None, None, None]
-        vals = np.concatenate([(G / Wn).reshape(ok.shape + (27,)),
-                               (C / Wn).reshape(ok.shape + (27,))], -1)
-        vals[~ok] = 0.0
-        if gv.size == 1:          # one volume ratio: the response taken constant in v
-            gv = np.array([gv[0], gv[0] * 2.0])
-            vals, ok, res = (np.concatenate([x, x], axis=4) for x in (vals, ok, res))
-            self._gravity_single_v = True
-        else:
-            self._gravity_single_v = False
-        self.gravity_v_ = np.asarray(ds["gravity_v"].values, float)
-        coarse = [self.gaps_] * 3 + [self.theta_, gv]
-        self.gravity_axes_ = [_FineAxis(c, 1) for c in coarse]
-        self.gravity_grid_ = _Grid(np.ascontiguousarray(vals), "multilinear")
-        self.gravity_cell_bad_ = np.ascontiguousarray(cell_max((~ok).astype(np.int8)))
-        self.gravity_cell_residual_ = np.ascontiguousarray(
-            cell_max(np.where(ok, res, 0.0)))
-        self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum()),
-                               "total": int(st.size)}
-        if "gravity_holdout_force" in ds:
-            self.gravity_errors_ = gravity_holdout_errors(self, ds)
-            self.gravity_bond_max_ = self.gravity_errors_["bond_max_validated"]
-
-    def _gravity_lookup(self, g, t, v, volume):
-        """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
-        ``volume`` (lookup units), the cell's largest sum-rule residual and a status
-        per point (int8 :class:`~capbridge.status.Status`): CONVERGED (available),
-        APPROXIMATE (v outside the response's range: nearest v), NOT_CONVERGED (not
-        available: a node of the cell has no response)."""
-        gv = self.gravity_v_
-        clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
-        vq = np.clip(v, gv[0], gv[-1])
-        loc = [ax.locate(np.asarray(x, float)) for ax, x in
-               zip(self.gravity_axes_, list(g) + [t, vq])]
-        idx, fr = [a[0] for a in loc], [a[1] for a in loc]
-        vals = self.gravity_grid_(idx, fr)
-        W = liquid_weight(volume)[:, None, None, None]
-        G = vals[:, :27].reshape(-1, 3, 3, 3) * W
-        C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
-        cell = tuple(idx)
-        bad = self.gravity_cell_bad_[cell] > 0
-        code = np.where(bad, np.int8(Status.NOT_CONVERGED),
-                        np.where(clipped, np.int8(Status.APPROXIMATE),
-                                 np.int8(Status.CONVERGED))).astype(np.int8)
-        return G, C, self.gravity_cell_residual_[cell], code
-
-    def gravity_summary(self):
-        """The gravity content of the fitted table (JSON-friendly dict, or None): the
-        response's volume ratios, nodes with a response, the supported and validated
-        Bond ranges and the held-out errors (:func:`gravity_holdout_errors`)."""
-        self._check_fitted()
-        if not self.has_gravity_:
-            return None
-        e = self.gravity_errors_
-        out = {"gravity_v": self.gravity_v_.tolist(), "nodes": self.gravity_nodes_,
-               "bond_max_supported": BOND_MAX,
-               "bond_max_validated": float(self.gravity_bond_max_)}
-        if e is not None:
-            out["holdout"] = {k: e[k] for k in ("threshold", "threshold_source", "bonds",
-                                                "max_error_by_bond",
-                                                "max_effect_error_by_bond",
-                                                "n_cases_by_bond", "n_cases",
-                                                "n_cases_used")}
-        return out
-
     # ---------------------------------------------------------------------- vectors
     def predict_vectors(self, centres, volume, theta, radii=None, unequal="harmonic_pair",
                         bond=0.0, gravity=None):
@@ -910,52 +815,6 @@ class TripletSurrogate(SurrogateBase):
             self._add_gravity(res, C, V, t, lookup_gaps, s, shape, bond, gravity)
         return res
 
-    def _check_bond(self, bond):
-        return check_bond(bond, self.has_gravity_, "triplet", "force_gravity_gradient",
-                          "Surface Evolver (capbridge solve triplet --bond)")
-
-    def _add_gravity(self, res, centres, V, t, gaps, s, shape, bond, gravity):
-        """Add the response to gravity to ``res`` (see :meth:`predict_vectors`)."""
-        bo = np.broadcast_to(self._check_bond(bond), shape)
-        direction = (0.0, 0.0, -1.0) if gravity is None else gravity
-        b = np.broadcast_to(gravity_vector(bo, direction), shape + (3,))
-        res["gravity"] = np.array(b)
-        F = res["forces"]
-        first = np.zeros(shape + (3, 3))
-        second = np.zeros(shape + (3, 3))
-        resid = np.zeros(shape)
-        status = np.array(res["status"], np.int8)
-        on = bo > 0
-        if on.any():
-            s = np.broadcast_to(s, shape)[on]
-            Q = table_frame(centres[on])                      # table -> caller
-            Vl = V[on] / s**3
-            g = [gaps[on][:, m] / s for m in range(3)]
-            G, Cv, resid_on, code = self._gravity_lookup(g, t[on], res["v"][on], Vl)
-            bt = np.matmul(b[on][:, None, :], Q)[:, 0] * (s**2)[:, None]   # lookup units
-            # the two terms of triplet_gravity_forces, as batched products
-            d1 = np.matmul(G, bt[:, None, :, None])[..., 0]
-            d2 = 0.5 * np.matmul(Cv, (bt**2)[:, None, :, None])[..., 0]
-            QT = np.swapaxes(Q, -1, -2) * s[:, None, None]                 # back, F* units
-            first[on] = np.matmul(d1, QT)
-            second[on] = np.matmul(d2, QT)
-            resid[on] = resid_on
-            st = status[on]
-            has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
-            approx = (code == Status.APPROXIMATE) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
-            st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
-            st = np.where((code == Status.NOT_CONVERGED)
-                          & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
-                          np.int8(Status.NOT_CONVERGED), st)
-            status[on] = st
-            nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
-            first[nores] = np.nan
-            second[nores] = np.nan
-        res["forces"] = np.where(on[..., None, None], F + first + second, F)
-        res["gravity_first_order"] = first
-        res["gravity_second_order"] = second
-        res["gravity_sum_residual"] = resid
-        res["status"] = status
 
     def predict_si(self, radius, surface_tension, centres, volume, theta,
                    density_difference=None, gravity=None):
