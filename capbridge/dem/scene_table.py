@@ -8,6 +8,8 @@ the surrogate's own fine nodes), so that a lookup gives the surrogate's number t
 round-off.  Because a bridge keeps its volume, everything but the gap is fixed when the
 bridge forms (:meth:`SceneTable.bridge_constants`: its volume cell, its rupture gap, its
 contact angle and ratio): a step costs a square root and four gathers per bridge.
+Locating a point and interpolating there is the grid kernel's
+(:mod:`capbridge.surrogate.grid`: the axes' ``locate``, :func:`multilinear_flat`).
 
 Conventions (capbridge's): lengths over the *smaller* radius of the pair r,
 ratio = R/r >= 1, V* = V/r^3, angles in degrees.
@@ -19,7 +21,7 @@ import math
 import numpy as np
 
 from capbridge.status import Status
-from capbridge.surrogate.grid import bilinear_flat, refine_axis
+from capbridge.surrogate.grid import UniformAxis, multilinear_flat, refine_axis
 
 __all__ = ["SceneTable", "default_table_path", "distinct_values"]
 
@@ -101,7 +103,8 @@ class SceneTable:
         else:
             lo, hi = ratios[0], ratios[-1]
             n = max(2, int(math.ceil((hi - lo) / ratio_step)) + 1)
-            self.ratio_nodes = np.linspace(lo, hi, n)
+            self.ratio_axis = UniformAxis(lo, hi, n)
+            self.ratio_nodes = self.ratio_axis.nodes
         self.v_axis = sur.logv_axis_
         self.s_axis = sur.s_axis_
         self.vstar_range = (float(sur.volume_[0]), float(sur.volume_[-1]))
@@ -229,9 +232,7 @@ class SceneTable:
             return i.astype(np.intp), np.zeros(r.size)
         if np.any(r < nodes[0] * (1 - 1e-9)) or np.any(r > nodes[-1] * (1 + 1e-9)):
             raise ValueError(f"radius ratio outside [{nodes[0]:g}, {nodes[-1]:g}]")
-        u = (np.clip(r, nodes[0], nodes[-1]) - nodes[0]) / (nodes[1] - nodes[0])
-        i = np.clip(np.floor(u), 0, nodes.size - 2).astype(np.intp)
-        return i, u - i
+        return self.ratio_axis.locate(np.clip(r, nodes[0], nodes[-1]))
 
     def volume_coordinate(self, vstar):
         """(cell index, weight) of V* on the fine log V* axis; V* must be in range."""
@@ -241,10 +242,7 @@ class SceneTable:
             bad = v[(v < lo * (1 - 1e-12)) | (v > hi * (1 + 1e-12))][0]
             raise ValueError(f"bridge volume V* = {bad:g} is outside the table's "
                              f"[{lo:g}, {hi:g}]")
-        ax = self.v_axis
-        u = (np.log(np.clip(v, lo, hi)) - ax.lo) * (1.0 / ax.step)
-        iv = np.clip(u.astype(np.intp), 0, ax.n - 2)
-        return iv, u - iv
+        return self.v_axis.locate(np.log(np.clip(v, lo, hi)))
 
     def bridge_constants(self, theta_idx, ratio, vstar):
         """Everything about a bridge that does not change while it keeps its volume:
@@ -253,60 +251,43 @@ class SceneTable:
         ri, fr = self.ratio_coordinate(ratio)
         iv, fv = self.volume_coordinate(vstar)
         nR, nV, nS = self.ratio_nodes.size, self.v_axis.n, self.s_axis.n
-        rup = self.rupture
-        d_r = rup[ti, ri, iv] * (1 - fv) + rup[ti, ri, iv + 1] * fv
-        if not self.discrete:
-            r2 = np.minimum(ri + 1, nR - 1)
-            d_r2 = rup[ti, r2, iv] * (1 - fv) + rup[ti, r2, iv + 1] * fv
-            d_r = d_r * (1 - fr) + d_r2 * fr
-        base = ((ti * nR + ri) * nV + iv) * nS
-        return {"base": base.astype(np.intp), "fv": fv, "fr": fr, "d_rupt": d_r}
+        cell = (ti * nR + ri) * nV + iv                      # in the (slice, ratio, V*) grid
+        const = {"base": (cell * nS).astype(np.intp), "fv": fv, "fr": fr}
+        strides, fracs = self._fixed_axes(const, 1)
+        const["d_rupt"] = multilinear_flat(self.rupture.ravel(), cell, strides, fracs)
+        return const
+
+    def _fixed_axes(self, const, inner):
+        """Strides and weights of the axes a bridge's constants fix, outermost first: the
+        ratio (a continuous table only) and log V*, for a grid whose inner axes hold
+        ``inner`` values per V* node (the s axis: n_s; the rupture gap: 1)."""
+        nV = self.v_axis.n
+        if self.discrete:
+            return (inner,), (const["fv"],)
+        # the ratio's cell is at most the last but one (UniformAxis.locate): the next
+        # ratio node is always there, read with weight 0 on the last node
+        return (nV * inner, inner), (const["fr"], const["fv"])
 
     def s_coordinate(self, gap_star, d_rupt):
         """(cell, weight) on the s axis; gaps < 0 (overlaps) are taken as contact."""
-        x = 1.0 - gap_star / d_rupt
-        np.minimum(x, 1.0, out=x)
-        np.maximum(x, 0.0, out=x)
-        u = np.sqrt(x, out=x)
-        ax = self.s_axis
-        if ax.lo != 0.0:
-            u -= ax.lo
-        u *= 1.0 / ax.step
-        i_s = u.astype(np.intp)
-        np.minimum(i_s, ax.n - 2, out=i_s)
-        return i_s, u - i_s
+        return self.s_axis.locate(np.sqrt(np.clip(1.0 - gap_star / d_rupt, 0.0, 1.0)))
 
     def rows(self, name, const):
         """The whole s-profile of variable ``name`` for bridges with constants
         ``const``: an (n, n_s) array (everything but s interpolated once)."""
-        g = self.flat[name]
-        nS, nV = self.s_axis.n, self.v_axis.n
-        cols = np.arange(nS)
-        k = const["base"][:, None] + cols[None, :]
-        fv = const["fv"][:, None]
-        out = g[k] * (1 - fv) + g[k + nS] * fv
-        if not self.discrete:
-            fr = const["fr"][:, None]
-            k2 = np.where(fr > 0, k + nV * nS, k)
-            out = out * (1 - fr) + (g[k2] * (1 - fv) + g[k2 + nS] * fv) * fr
-        return out
+        nS = self.s_axis.n
+        strides, fracs = self._fixed_axes(const, nS)
+        k = const["base"][:, None] + np.arange(nS)[None, :]
+        return multilinear_flat(self.flat[name], k, strides, tuple(f[:, None] for f in fracs))
 
     def lookup(self, name, const, gap_star, s_coord=None):
         """Value of variable ``name`` for bridges with constants ``const`` (see
         :meth:`bridge_constants`) at ``gap_star``.  Beyond the rupture gap the value is
         that of the rupture point (callers drop those bridges)."""
         i_s, fs = s_coord if s_coord is not None else self.s_coordinate(gap_star, const["d_rupt"])
-        flat = self.flat[name]
-        nS = self.s_axis.n
-        k = const["base"] + i_s
-        fv = const["fv"]
-        val = bilinear_flat(flat, k, nS, fs, fv)
-        if not self.discrete:
-            k2 = k + self.v_axis.n * nS
-            k2 = np.where(const["fr"] > 0, k2, k)    # last node: weight 0 anyway
-            val2 = bilinear_flat(flat, k2, nS, fs, fv)
-            val = val + (val2 - val) * const["fr"]
-        return val
+        strides, fracs = self._fixed_axes(const, self.s_axis.n)
+        return multilinear_flat(self.flat[name], const["base"] + i_s, strides + (1,),
+                                fracs + (fs,))
 
     def predict(self, gap_star, vstar, theta, ratio, variables=("force",), theta2=None):
         """Convenience: values at arbitrary points (arrays broadcast), force 0 and the
