@@ -35,8 +35,7 @@ from scipy.interpolate import make_interp_spline
 
 __all__ = ["refine_axis", "UniformAxis", "FineAxis", "bilinear", "trilinear", "multilinear_flat",
            "bilinear_flat", "rows_linear", "profile_value", "Grid", "Descending",
-           "corner_offsets",
-           "corner_weights"]
+           "corner_offsets", "corner_weights"]
 
 
 def refine_axis(values, axis, coarse, fine, degree=None):
