@@ -1,20 +1,14 @@
 """Volume-controlled liquid bridges between spheres, in plain numpy (no YADE here).
 
-:class:`SceneTable` cuts, out of capbridge's doublet table, only what one DEM scene
-needs: the contact angles of its materials and the radius ratios of its grain pairs,
-refined exactly as :class:`capbridge.surrogate.doublet.DoubletSurrogate` refines them
-(cubic splines along theta, log ratio, log V* and s = sqrt(1 - d*/d*_rupt), evaluated on
-the surrogate's own fine nodes), so that a lookup gives the surrogate's number to
-round-off.  Because a bridge keeps its volume, everything but the gap is fixed when the
-bridge forms (its volume cell, its rupture gap, its contact angle and ratio): a step
-costs a square root and four gathers per bridge.
-
 :class:`BridgeModel` holds the bridges of a packing: it forms them at contact with the
-volume given by the liquid rule (:class:`LiquidRule`), keeps the volume, ruptures them
-beyond the table's rupture gap, lets them re-form at a later contact, and sums the
-bridge forces, equal and opposite along the centre line, on the grains.  It keeps a
-ledger of the liquid (every formation and rupture, and the liquid held on grains for the
-conserving rule) so that the total is accounted for at every step.
+volume given by the liquid rule (:class:`~capbridge.dem.liquid_rule.LiquidRule`), keeps
+the volume, ruptures them beyond the table's rupture gap, lets them re-form at a later
+contact, and sums the bridge forces, equal and opposite along the centre line, on the
+grains.  It keeps a ledger of the liquid (every formation and rupture, and the liquid
+held on grains for the conserving rule) so that the total is accounted for at every
+step.  Its numbers come from the scene's cut of the doublet table
+(:class:`~capbridge.dem.scene_table.SceneTable`), its formation candidates from a
+neighbour list (:class:`~capbridge.dem.neighbours.VerletList`).
 
 Conventions (capbridge's): lengths over the *smaller* radius of the pair r,
 ratio = R/r >= 1, V* = V/r^3, F* = F/(2 pi gamma r), attraction > 0, angles in degrees.
@@ -22,13 +16,15 @@ ratio = R/r >= 1, V* = V/r^3, F* = F/(2 pi gamma r), attraction > 0, angles in d
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 
+from capbridge.dem.liquid_rule import LiquidRule
+from capbridge.dem.neighbours import VerletList
+from capbridge.dem.scene_table import SceneTable, distinct_values
 from capbridge.dimensionless import force_scale
-from capbridge.status import Status
-from capbridge.surrogate.grid import bilinear_flat
+# this module's public name from before the scene table had its own module (issue 17)
+from capbridge.dem.scene_table import default_table_path
 
 __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
            "distinct_values", "balance_error"]
@@ -38,12 +34,6 @@ __all__ = ["SceneTable", "LiquidRule", "BridgeModel", "default_table_path",
 #: a bridge's relative gravity correction is taken at its smallest attraction in that band.
 ERROR_BAND = 0.2
 
-def default_table_path():
-    """The shipped doublet table, ``<project>/data/doublet_table.nc``."""
-    from capbridge.surrogate.doublet import default_table
-
-    return default_table()
-
 
 def balance_error(got, expected, scale):
     """Relative error of a liquid ledger: |got - expected| relative to the liquid
@@ -51,431 +41,6 @@ def balance_error(got, expected, scale):
     every wet grain erased), to ``scale``, the liquid the ledger handled [m^3]."""
     denom = abs(expected) if abs(expected) > 1e-9 * abs(scale) else abs(scale)
     return abs(got - expected) / max(denom, 1e-300)
-
-
-def distinct_values(x, rtol=1e-9):
-    """Sorted distinct values of ``x`` (values within ``rtol`` of each other merged)."""
-    x = np.sort(np.asarray(x, float).ravel())
-    if x.size == 0:
-        return x
-    keep = np.concatenate([[True], np.diff(x) > rtol * np.abs(x[1:])])
-    return x[keep]
-
-
-def _stack(parts, shape):
-    """The slices ``parts`` stacked into ``shape`` (no slice: an empty grid, for a scene
-    whose wet grains were all erased)."""
-    return np.concatenate(parts).reshape(shape) if parts else np.empty(shape)
-
-
-# ------------------------------------------------------------------------------------
-# The table cut for one scene
-# ------------------------------------------------------------------------------------
-
-
-class SceneTable:
-    """Fine lookup grids for the contact angles and radius ratios of one scene.
-
-    Parameters
-    ----------
-    table : path of a capbridge doublet table, an ``xarray.Dataset``, or a fitted
-        :class:`~capbridge.surrogate.doublet.DoubletSurrogate` (its ``refine`` sets the
-        fine grid; default ``DoubletSurrogate()``'s).
-    thetas : contact angles [deg] the scene uses (one grid stack each).
-    ratios : the radius ratios R/r >= 1 of the scene's pairs.  With at most
-        ``max_discrete`` distinct values (mono-, bi-, tridisperse packings) every one
-        gets its own exact grid and a lookup never interpolates in ratio.  Otherwise, or
-        with ``continuous=True`` (continuous size distributions), the range [min, max]
-        gets nodes every ``ratio_step`` and a lookup is linear in ratio between them.
-    variables : what to tabulate besides the rupture gap ("force", "beta1", "beta2",
-        "pressure").
-
-    Only those slices are built: memory is ``len(thetas) * n_ratio_nodes *
-    len(variables) * 145 * 145`` doubles with the default refinement.
-    """
-
-    def __init__(self, table, thetas, ratios=(1.0,), variables=("force",),
-                 ratio_step=0.01, max_discrete=12, continuous=None, theta_pairs=()):
-        from capbridge.surrogate.doublet import DoubletSurrogate
-
-        sur = table if isinstance(table, DoubletSurrogate) else DoubletSurrogate().fit(table)
-        sur._check_fitted()
-        self.surrogate = sur
-        ds = sur.table_
-        self.variables = tuple(dict.fromkeys(variables))
-        for name in self.variables:
-            if name not in ds:
-                raise ValueError(f"the table has no variable {name!r}")
-        self.thetas = distinct_values(thetas)
-        pairs = np.asarray(theta_pairs, float).reshape(-1, 2)
-        pairs = pairs[np.abs(pairs[:, 0] - pairs[:, 1]) > 1e-9]
-        self.theta_pairs = np.unique(pairs, axis=0) if pairs.size else np.empty((0, 2))
-        every = np.concatenate([self.thetas, self.theta_pairs.ravel()])
-        if np.any(every < sur.theta_[0] - 1e-9) or np.any(every > sur.theta_[-1] + 1e-9):
-            raise ValueError(f"contact angles {distinct_values(every).tolist()} deg: the table "
-                             f"covers [{sur.theta_[0]:g}, {sur.theta_[-1]:g}] deg")
-        ratios = distinct_values(ratios)
-        if ratios.size == 0:
-            ratios = np.array([1.0])
-        if ratios[0] < 1.0 - 1e-12 or ratios[-1] > sur.ratios_[-1] * (1 + 1e-12):
-            raise ValueError(f"radius ratios [{ratios[0]:g}, {ratios[-1]:g}]: the table "
-                             f"covers [{sur.ratios_[0]:g}, {sur.ratios_[-1]:g}] "
-                             "(ratio = larger / smaller radius)")
-        ratios = np.clip(ratios, 1.0, sur.ratios_[-1])
-        self.discrete = (ratios.size <= max_discrete) if continuous is None else not continuous
-        if self.discrete:
-            self.ratio_nodes = ratios
-        else:
-            lo, hi = ratios[0], ratios[-1]
-            n = max(2, int(math.ceil((hi - lo) / ratio_step)) + 1)
-            self.ratio_nodes = np.linspace(lo, hi, n)
-        self.v_axis = sur.logv_axis_
-        self.s_axis = sur.s_axis_
-        self.vstar_range = (float(sur.volume_[0]), float(sur.volume_[-1]))
-        self._check_status(ds)
-        self.grids = {}
-        # slices: one per equal angle (from the table), then one per mixed pair (exact)
-        n_sl = self.thetas.size + self.theta_pairs.shape[0]
-        shape = (n_sl, self.ratio_nodes.size, self.v_axis.n, self.s_axis.n)
-        mixed = self._build_mixed(ds)
-        for name in self.variables:
-            parts = ([self._build(ds[name].values)] if self.thetas.size else []) + mixed[name]
-            self.grids[name] = np.ascontiguousarray(_stack(parts, shape))
-        parts = (([self._build(ds["rupture_gap"].values)] if self.thetas.size else [])
-                 + mixed["rupture_gap"])
-        self.rupture = np.ascontiguousarray(_stack(parts, shape[:3]))
-        self.flat = {name: g.ravel() for name, g in self.grids.items()}
-
-    # -------------------------------------------------------------------------- build
-    @staticmethod
-    def _check_status(ds):
-        bad = int((ds["status"].values != int(Status.CONVERGED)).sum())
-        bad_r = int((ds["rupture_status"].values != int(Status.CONVERGED)).sum())
-        if bad or bad_r:
-            raise ValueError(f"the doublet table has {bad} unconverged points and {bad_r} "
-                             "unconverged rupture points; the engine needs a complete table "
-                             "(regenerate it)")
-
-    def _theta_weights(self):
-        """The surrogate's theta treatment: spline to its fine theta nodes, then linear
-        between the two nodes around theta.  Returns (nodes_lo, nodes_hi, w)."""
-        ax = self.surrogate.theta_axis_
-        it, ft = ax.locate(self.thetas)
-        return ax.nodes[it], ax.nodes[it + 1], ft
-
-    def _build(self, values):
-        """values: (ratio, theta, volume[, s]) coarse -> (theta, node, vfine[, sfine]),
-        with the surrogate's own cubic refinement along each axis."""
-        from capbridge.surrogate.doublet import refine_axis
-
-        sur = self.surrogate
-        lo, hi, w = self._theta_weights()
-        a = refine_axis(values, 1, sur.theta_, lo)
-        b = refine_axis(values, 1, sur.theta_, hi)
-        wb = w.reshape((1, -1) + (1,) * (values.ndim - 2))
-        v = a * (1 - wb) + b * wb                                # (ratio, theta, V[, s])
-        v = refine_axis(v, 0, np.log(sur.ratios_), np.log(self.ratio_nodes))  # (node, theta, ...)
-        v = np.swapaxes(v, 0, 1)                                 # (theta, node, V[, s])
-        v = refine_axis(v, 2, np.log(sur.volume_), self.v_axis.nodes)
-        if v.ndim == 4:
-            v = refine_axis(v, 3, sur.s_, self.s_axis.nodes)
-        return v
-
-    def _coarse_ratios_for_nodes(self):
-        """The table's coarse ratios a mixed slice is solved on: the nodes themselves
-        when they are all tabulated ratios, else those bracketing the nodes plus one
-        more on each side (so that the ratio spline is the table's cubic)."""
-        rc = self.surrogate.ratios_
-        if np.all(np.isclose(self.ratio_nodes[:, None], rc[None, :], rtol=1e-12, atol=0).any(axis=1)):
-            return self.ratio_nodes.copy()
-        lo = max(int(np.searchsorted(rc, self.ratio_nodes[0], side="right")) - 2, 0)
-        hi = min(int(np.searchsorted(rc, self.ratio_nodes[-1], side="left")) + 2, rc.size)
-        return rc[lo:hi]
-
-    def _build_mixed(self, ds):
-        """Slices of the mixed pairs: exact coarse solutions
-        (:func:`~capbridge.dem.mixed_angles.exact_coarse`) refined like the
-        table's.  Returns name -> list of (1, node, vfine[, sfine]) arrays."""
-        from capbridge.dem.mixed_angles import exact_coarse
-        from capbridge.surrogate.doublet import refine_axis
-
-        sur = self.surrogate
-        out = {name: [] for name in self.variables + ("rupture_gap",)}
-        if not self.theta_pairs.size:
-            return out
-        rc = self._coarse_ratios_for_nodes()
-        for t1, t2 in self.theta_pairs:
-            ex = exact_coarse(t1, t2, rc, sur.volume_, sur.s_, self.variables)
-            for name, v in ex.items():
-                if rc.size > 1:
-                    v = refine_axis(v, 0, np.log(rc), np.log(self.ratio_nodes))
-                v = refine_axis(v, 1, np.log(sur.volume_), self.v_axis.nodes)
-                if v.ndim == 3:
-                    v = refine_axis(v, 2, sur.s_, self.s_axis.nodes)
-                out[name].append(v[None])
-        return out
-
-    # ------------------------------------------------------------------------- lookup
-    def slice_index(self, theta1, theta2):
-        """Slice of each bridge with angle ``theta1`` on its smaller grain and
-        ``theta2`` on its larger one: the equal-angle slice when they agree, else the
-        exact mixed slice (which must have been asked for in ``theta_pairs``)."""
-        t1 = np.atleast_1d(np.asarray(theta1, float))
-        t2 = np.broadcast_to(np.asarray(theta2, float), t1.shape)
-        same = np.abs(t1 - t2) <= 1e-9
-        out = np.empty(t1.shape, np.intp)
-        if same.any():
-            out[same] = self.theta_index(t1[same])
-        if (~same).any():
-            p = self.theta_pairs
-            hit = (np.abs(p[None, :, 0] - t1[~same, None]) <= 1e-9) & \
-                  (np.abs(p[None, :, 1] - t2[~same, None]) <= 1e-9)
-            if not hit.any(axis=1).all():
-                k = np.flatnonzero(~hit.any(axis=1))[0]
-                raise ValueError(f"contact-angle pair ({t1[~same][k]:g}, {t2[~same][k]:g}) "
-                                 "deg is not in this SceneTable")
-            out[~same] = self.thetas.size + hit.argmax(axis=1)
-        return out
-
-    def theta_index(self, theta):
-        """Index of each contact angle in :attr:`thetas` (must be one of them)."""
-        theta = np.atleast_1d(np.asarray(theta, float))
-        idx = np.searchsorted(self.thetas, theta - 1e-9)
-        idx = np.clip(idx, 0, self.thetas.size - 1)
-        if not np.allclose(self.thetas[idx], theta, rtol=1e-9, atol=1e-9):
-            raise ValueError(f"contact angles {np.setdiff1d(theta, self.thetas)} are not in "
-                             "this SceneTable")
-        return idx
-
-    def ratio_coordinate(self, ratio):
-        """(node index, weight toward the next node) of each ratio."""
-        r = np.atleast_1d(np.asarray(ratio, float))
-        nodes = self.ratio_nodes
-        if self.discrete:
-            i = np.clip(np.searchsorted(nodes, r * (1 - 1e-9)), 0, nodes.size - 1)
-            if not np.allclose(nodes[i], r, rtol=1e-8, atol=0):
-                miss = r[~np.isclose(nodes[i], r, rtol=1e-8, atol=0)][0]
-                raise ValueError(f"radius ratio {miss:g} is not among this SceneTable's "
-                                 f"ratios {nodes.tolist()}")
-            return i.astype(np.intp), np.zeros(r.size)
-        if np.any(r < nodes[0] * (1 - 1e-9)) or np.any(r > nodes[-1] * (1 + 1e-9)):
-            raise ValueError(f"radius ratio outside [{nodes[0]:g}, {nodes[-1]:g}]")
-        u = (np.clip(r, nodes[0], nodes[-1]) - nodes[0]) / (nodes[1] - nodes[0])
-        i = np.clip(np.floor(u), 0, nodes.size - 2).astype(np.intp)
-        return i, u - i
-
-    def volume_coordinate(self, vstar):
-        """(cell index, weight) of V* on the fine log V* axis; V* must be in range."""
-        v = np.atleast_1d(np.asarray(vstar, float))
-        lo, hi = self.vstar_range
-        if np.any(v < lo * (1 - 1e-12)) or np.any(v > hi * (1 + 1e-12)):
-            bad = v[(v < lo * (1 - 1e-12)) | (v > hi * (1 + 1e-12))][0]
-            raise ValueError(f"bridge volume V* = {bad:g} is outside the table's "
-                             f"[{lo:g}, {hi:g}]")
-        ax = self.v_axis
-        u = (np.log(np.clip(v, lo, hi)) - ax.lo) * (1.0 / ax.step)
-        iv = np.clip(u.astype(np.intp), 0, ax.n - 2)
-        return iv, u - iv
-
-    def bridge_constants(self, theta_idx, ratio, vstar):
-        """Everything about a bridge that does not change while it keeps its volume:
-        a dict with the flat base index, the weights and the rupture gap d*_rupt."""
-        ti = np.atleast_1d(np.asarray(theta_idx, np.intp))
-        ri, fr = self.ratio_coordinate(ratio)
-        iv, fv = self.volume_coordinate(vstar)
-        nR, nV, nS = self.ratio_nodes.size, self.v_axis.n, self.s_axis.n
-        rup = self.rupture
-        d_r = rup[ti, ri, iv] * (1 - fv) + rup[ti, ri, iv + 1] * fv
-        if not self.discrete:
-            r2 = np.minimum(ri + 1, nR - 1)
-            d_r2 = rup[ti, r2, iv] * (1 - fv) + rup[ti, r2, iv + 1] * fv
-            d_r = d_r * (1 - fr) + d_r2 * fr
-        base = ((ti * nR + ri) * nV + iv) * nS
-        return {"base": base.astype(np.intp), "fv": fv, "fr": fr, "d_rupt": d_r}
-
-    def s_coordinate(self, gap_star, d_rupt):
-        """(cell, weight) on the s axis; gaps < 0 (overlaps) are taken as contact."""
-        x = 1.0 - gap_star / d_rupt
-        np.minimum(x, 1.0, out=x)
-        np.maximum(x, 0.0, out=x)
-        u = np.sqrt(x, out=x)
-        ax = self.s_axis
-        if ax.lo != 0.0:
-            u -= ax.lo
-        u *= 1.0 / ax.step
-        i_s = u.astype(np.intp)
-        np.minimum(i_s, ax.n - 2, out=i_s)
-        return i_s, u - i_s
-
-    def rows(self, name, const):
-        """The whole s-profile of variable ``name`` for bridges with constants
-        ``const``: an (n, n_s) array (everything but s interpolated once)."""
-        g = self.flat[name]
-        nS, nV = self.s_axis.n, self.v_axis.n
-        cols = np.arange(nS)
-        k = const["base"][:, None] + cols[None, :]
-        fv = const["fv"][:, None]
-        out = g[k] * (1 - fv) + g[k + nS] * fv
-        if not self.discrete:
-            fr = const["fr"][:, None]
-            k2 = np.where(fr > 0, k + nV * nS, k)
-            out = out * (1 - fr) + (g[k2] * (1 - fv) + g[k2 + nS] * fv) * fr
-        return out
-
-    def lookup(self, name, const, gap_star, s_coord=None):
-        """Value of variable ``name`` for bridges with constants ``const`` (see
-        :meth:`bridge_constants`) at ``gap_star``.  Beyond the rupture gap the value is
-        that of the rupture point (callers drop those bridges)."""
-        i_s, fs = s_coord if s_coord is not None else self.s_coordinate(gap_star, const["d_rupt"])
-        flat = self.flat[name]
-        nS = self.s_axis.n
-        k = const["base"] + i_s
-        fv = const["fv"]
-        val = bilinear_flat(flat, k, nS, fs, fv)
-        if not self.discrete:
-            k2 = k + self.v_axis.n * nS
-            k2 = np.where(const["fr"] > 0, k2, k)    # last node: weight 0 anyway
-            val2 = bilinear_flat(flat, k2, nS, fs, fv)
-            val = val + (val2 - val) * const["fr"]
-        return val
-
-    def predict(self, gap_star, vstar, theta, ratio, variables=("force",), theta2=None):
-        """Convenience: values at arbitrary points (arrays broadcast), force 0 and the
-        others NaN beyond rupture; for checks against the surrogate and the exact
-        solver (``theta`` on the smaller grain, ``theta2`` on the larger, default
-        ``theta``)."""
-        g, v, t, r = np.broadcast_arrays(*(np.asarray(a, float) for a in (gap_star, vstar, theta, ratio)))
-        t2 = t if theta2 is None else np.broadcast_to(np.asarray(theta2, float), t.shape)
-        const = self.bridge_constants(self.slice_index(t.ravel(), t2.ravel()), r.ravel(), v.ravel())
-        gs = g.ravel()
-        sc = self.s_coordinate(gs, const["d_rupt"])
-        out = {"rupture_gap": const["d_rupt"].reshape(g.shape)}
-        broken = gs > const["d_rupt"]
-        for name in variables:
-            val = self.lookup(name, const, gs, sc)
-            val = np.where(broken, 0.0 if name == "force" else np.nan, val)
-            out[name] = val.reshape(g.shape)
-        return out
-
-    @property
-    def nbytes(self):
-        return int(sum(g.nbytes for g in self.grids.values()) + self.rupture.nbytes)
-
-
-# ------------------------------------------------------------------------------------
-# Liquid rules
-# ------------------------------------------------------------------------------------
-
-
-@dataclasses.dataclass
-class LiquidRule:
-    """How much liquid a bridge gets when it forms (see ``docs/guide.md``, "Liquid rules").
-
-    Exactly one of:
-
-    ``bridge_volume``       every bridge that forms gets this volume [m^3];
-    ``bridge_volume_star``  every bridge gets V = V* r^3 (r its smaller radius);
-    ``total_liquid``        a total liquid volume [m^3] (the engine converts a water
-                            content or a degree of saturation into it).
-
-    With ``total_liquid`` and ``conserve=False`` the liquid is shared equally among the
-    bridges present at the start and that volume becomes the fixed volume of every
-    later bridge.  With ``conserve=True`` (default for ``total_liquid``) the liquid is
-    conserved: it starts shared equally among the initial bridges, a ruptured bridge
-    gives its liquid back to its two grains (in proportion to their surface, R^2) and a
-    new bridge takes ``film_fraction`` of the liquid held by each of its two grains.
-    """
-
-    bridge_volume: float | None = None
-    bridge_volume_star: float | None = None
-    total_liquid: float | None = None
-    conserve: bool | None = None
-    film_fraction: float = 0.5
-
-    def __post_init__(self):
-        given = [k for k in ("bridge_volume", "bridge_volume_star", "total_liquid")
-                 if getattr(self, k) is not None]
-        if len(given) != 1:
-            raise ValueError("give exactly one of bridge_volume, bridge_volume_star, "
-                             f"total_liquid (got {given or 'none'})")
-        val = getattr(self, given[0])
-        if not (np.isfinite(val) and val > 0):
-            raise ValueError(f"{given[0]} must be a positive number (got {val!r})")
-        if self.conserve is None:
-            self.conserve = self.total_liquid is not None
-        if self.conserve and self.total_liquid is None:
-            raise ValueError("conserve=True needs a total liquid (total_liquid, "
-                             "water_content or saturation)")
-        if not 0 < self.film_fraction <= 1:
-            raise ValueError("film_fraction must be in (0, 1]")
-
-    @property
-    def kind(self):
-        return "conserved" if self.conserve else "fixed"
-
-
-# ------------------------------------------------------------------------------------
-# The bridges of a packing
-# ------------------------------------------------------------------------------------
-
-
-class _Candidates:
-    """Verlet list of sphere pairs closer than r_i + r_j + skin (for bridge formation)."""
-
-    def __init__(self, radii, skin, reach=0.0):
-        self.radii = radii
-        self.skin = float(skin)
-        self.reach = float(reach)          # formation gap
-        self.i = self.j = np.empty(0, np.intp)
-        self.ref = None
-        self.has_bridge = np.empty(0, bool)
-        self.refused = np.empty(0, bool)   # touching, refused for lack of liquid
-        self.keys = np.empty(0, np.int64)
-        self.rebuilds = 0
-
-    def needs_rebuild(self, pos):
-        if self.ref is None or self.ref.shape != pos.shape:
-            return True
-        d2 = np.einsum("ij,ij->i", pos - self.ref, pos - self.ref)
-        return float(d2.max(initial=0.0)) > (0.5 * self.skin) ** 2
-
-    def rebuild(self, pos, bridge_keys, n, refused_keys=None):
-        """New list around ``pos``; the pairs of ``refused_keys`` (default: those
-        refused in the old list) stay refused."""
-        if refused_keys is None:
-            refused_keys = self.keys[self.refused] if self.refused.size else np.empty(0, np.int64)
-        from scipy.spatial import cKDTree
-
-        r = self.radii
-        cell = getattr(self, "cell", None)     # periodic: nearest images through the faces
-        cut = 2.0 * float(r.max(initial=0.0)) + self.skin
-        if cell is not None:
-            i, j, dv = cell.near_pairs(pos, cut)
-        else:
-            pairs = cKDTree(pos).query_pairs(cut, output_type="ndarray").reshape(-1, 2)
-            i, j = pairs[:, 0].astype(np.intp), pairs[:, 1].astype(np.intp)
-            swap = i > j
-            i, j = np.where(swap, j, i), np.where(swap, i, j)
-            dv = pos[j] - pos[i]
-        keep = np.linalg.norm(dv, axis=1) < r[i] + r[j] + self.skin
-        i, j = i[keep], j[keep]
-        self.i, self.j = i, j
-        self.reach2 = (r[i] + r[j] + self.reach) ** 2
-        self.keys = i.astype(np.int64) * n + j
-        self.has_bridge = np.isin(self.keys, bridge_keys)
-        self.refused = np.isin(self.keys, refused_keys)
-        self.ref = pos.copy()
-        self.rebuilds += 1
-
-    def index_of(self, keys):
-        """Candidate index of each pair key (-1 if absent)."""
-        if self.keys.size == 0:
-            return np.full(len(keys), -1, np.intp)
-        order = np.argsort(self.keys)
-        pos = np.searchsorted(self.keys[order], keys)
-        pos = np.clip(pos, 0, self.keys.size - 1)
-        hit = self.keys[order][pos] == keys
-        return np.where(hit, order[pos], -1)
 
 
 class BridgeModel:
@@ -542,7 +107,7 @@ class BridgeModel:
         if self.table.s_axis.lo != 0.0:
             raise ValueError("the table's s axis must start at 0 (s = sqrt(1 - d/d_rupt))")
         self._check_fixed_volume()
-        self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
+        self.cand = VerletList(self.radii, self.skin, self.formation_gap)
         self._empty()
         self.films = np.zeros(self.n)
         # gravity part of each grain's force last handed to the DEM [N] (liquid_gravity)
@@ -996,7 +561,7 @@ class BridgeModel:
         self.n = int(self.radii.size)
         self.bi, self.bj = new_index[self.bi], new_index[self.bj]
         self.keys = self.bi.astype(np.int64) * self.n + self.bj
-        self.cand = _Candidates(self.radii, self.skin, self.formation_gap)
+        self.cand = VerletList(self.radii, self.skin, self.formation_gap)
         self.cidx = np.full(self.bi.size, -1, np.intp)
         return new_index
 

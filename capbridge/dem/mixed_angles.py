@@ -3,7 +3,7 @@
 capbridge's shipped doublet table holds bridges with one contact angle on both grains.
 A bridge between two materials of different wettability is not the bridge of the mean
 angle (issue 9 measured 16-20 % too strong for (0, 60) deg and 31-39 % for (0, 80) deg),
-so :class:`~capbridge.dem.bridges.SceneTable` asks this module, at scene start,
+so :class:`~capbridge.dem.scene_table.SceneTable` asks this module, at scene start,
 for the exact solutions of the pairs of angles the scene holds, on the shipped table's
 own coarse grid (ratio x V* x s, s = sqrt(1 - d*/d*_rupt)).  The scene table then
 refines them with the same cubic splines as every other slice, so a mixed pair has the

@@ -56,6 +56,7 @@ from capbridge.validation import CapbridgeInputError, check_range
 __all__ = [
     "TripletGeometry",
     "triplet_geometry",
+    "table_frame",
     "parse_bridges",
     "uncoalesced_state",
     "bridge_meridian",
@@ -135,6 +136,36 @@ def triplet_geometry(d12, d13, d23):
     centres = np.array([[p[2, 0] - half, 0.0, p[2, 1]], [-half, 0.0, 0.0],
                         [half, 0.0, 0.0]])
     return TripletGeometry(d[0], d[1], d[2], centres)
+
+
+def table_frame(centres):
+    """Rotation Q (..., 3, 3) from the table frame of a triplet to the caller's frame.
+
+    The table frame is that of :func:`triplet_geometry`, in which the triplet tables are
+    computed: grains 2 and 3 on the x axis (grain 3 at +x), grain 1 at z > 0 and the
+    centres in the plane y = 0.  The columns of Q are its axes in the caller's frame:
+
+        e_x = (c3 - c2) / |c3 - c2|,   e_z = the part of c1 - c2 normal to e_x, normalised,
+        e_y = e_z x e_x,
+
+    so a vector u_t of the table frame is Q u_t in the caller's, and det Q = +1.
+
+    Parameters
+    ----------
+    centres : array_like (..., 3, 3)
+        Centres of grains 1, 2, 3 (rows) in the caller's frame (any unit).
+
+    >>> np.allclose(table_frame(triplet_geometry(0.1, 0.05, 0.2).centres), np.eye(3))
+    True
+    """
+    c = np.asarray(centres, float)
+    ex = c[..., 2, :] - c[..., 1, :]
+    ex = ex / np.linalg.norm(ex, axis=-1, keepdims=True)
+    a = c[..., 0, :] - c[..., 1, :]
+    ez = a - np.sum(a * ex, -1, keepdims=True) * ex
+    ez = ez / np.linalg.norm(ez, axis=-1, keepdims=True)
+    ey = np.cross(ez, ex)
+    return np.stack([ex, ey, ez], -1)
 
 
 def parse_bridges(spec):

@@ -16,7 +16,8 @@ from scipy.interpolate import make_interp_spline
 
 from capbridge.tables import DATA_DIR
 from capbridge.status import HAS_RESULT, Status
-from capbridge.surrogate.grid import UniformAxis, bilinear, bilinear_flat, trilinear
+from capbridge.surrogate.grid import (UniformAxis, bilinear, bilinear_flat, refine_axis,
+                                      trilinear)
 from capbridge.surrogate.base import (SurrogateBase, apply_no_result_rule, has_number,
                                      worst_status)
 from capbridge.physics.gravity import (BOND_MAX, check_bond, doublet_gravity_forces,
@@ -98,16 +99,6 @@ def si_bond(radius, surface_tension, density_difference, gravity):
 #: (Lian, Thornton & Adams 1993), used to keep the state (bridge or none) when a
 #: volume outside the table is clipped
 _RUPTURE_EXPONENT = 1.0 / 3.0
-
-
-def refine_axis(values, axis, coarse, fine):
-    """Cubic-spline ``values`` along ``axis`` from the ``coarse`` to the ``fine`` nodes."""
-    if len(coarse) < 4:
-        k = len(coarse) - 1
-    else:
-        k = 3
-    spline = make_interp_spline(coarse, values, k=k, axis=axis)
-    return spline(fine)
 
 
 class DoubletSurrogate(SurrogateBase):

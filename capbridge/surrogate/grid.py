@@ -1,17 +1,21 @@
 """One grid kernel for the surrogates and the DEM engine's lookups.
 
-Everything that locates a point on a fine grid and interpolates there lives here (it
-was written once per user before):
+Everything that fills a fine grid from a table's coarse one, locates a point on it and
+interpolates there lives here (it was written once per user before):
 
+* :func:`refine_axis`: splines along one axis from the coarse nodes to the fine ones
+  (the doublet's, the triplet's and the DEM scene tables' fine grids);
 * :class:`UniformAxis`: a uniform axis, index and weight by arithmetic (the doublet's
-  theta, log V* and s axes; :class:`~capbridge.dem.bridges.SceneTable` reads them);
+  theta, log V* and s axes, which :class:`~capbridge.dem.scene_table.SceneTable`
+  reads, and its continuous ratio axis);
 * :class:`FineAxis`: ``refine`` equal steps per interval of a coarse, possibly
   non-uniform, axis (the triplet's axes);
 * :func:`bilinear`, :func:`trilinear`: multilinear interpolation on a grid from the
   (index, weight) pairs of the axes (the doublet's general lookup);
-* :func:`bilinear_flat`: the bilinear lookup on a row-major (..., log V*, s) grid at
-  flat indices, the DEM's inner loop (``DoubletSurrogate.predict_fixed_theta``,
-  ``SceneTable.lookup``);
+* :func:`multilinear_flat`: the multilinear lookup on a row-major grid at flat indices,
+  the DEM's inner loop (:class:`~capbridge.dem.scene_table.SceneTable`'s ``lookup``,
+  ``rows`` and rupture gaps), and its case :func:`bilinear_flat` on a (..., log V*, s)
+  grid (``DoubletSurrogate.predict_fixed_theta``);
 * :func:`profile_value`: linear interpolation of s-profiles on a uniform s grid (the
   sphere-wall bridges), by :func:`rows_linear`, which interpolates one profile per
   point between two of its nodes (also the DEM's gravity response along s, located on
@@ -20,15 +24,28 @@ was written once per user before):
   and :class:`Descending` (sorted fractions for the simplex kernel): the triplet's.
 
 The arithmetic of each function is the one its users had: moving a user here keeps its
-numbers bit for bit.
+numbers bit for bit.  (The exception: the scene table's profiles, rupture gaps and
+coordinates, which had their own a (1 - f) + b f and multiplications by 1/step; on the
+kernel they differ from before by round-off, up to a few 1e-15 relative.)
 """
 from __future__ import annotations
 
 import numpy as np
+from scipy.interpolate import make_interp_spline
 
-__all__ = ["UniformAxis", "FineAxis", "bilinear", "trilinear", "bilinear_flat",
-           "rows_linear", "profile_value", "Grid", "Descending", "corner_offsets",
-           "corner_weights"]
+__all__ = ["refine_axis", "UniformAxis", "FineAxis", "bilinear", "trilinear", "multilinear_flat",
+           "bilinear_flat", "rows_linear", "profile_value", "Grid", "Descending",
+           "corner_offsets", "corner_weights"]
+
+
+def refine_axis(values, axis, coarse, fine, degree=None):
+    """Spline ``values`` along ``axis`` from the ``coarse`` to the ``fine`` nodes.
+
+    ``degree`` None: cubic, or the highest degree the nodes allow below 4 nodes (the
+    surrogates' refinement); 1: linear (the triplet's "cubic_tv" gaps).
+    """
+    k = (3 if len(coarse) >= 4 else len(coarse) - 1) if degree is None else degree
+    return make_interp_spline(coarse, values, k=k, axis=axis)(fine)
 
 
 class UniformAxis:
@@ -92,13 +109,26 @@ def trilinear(grid, i, fi, j, fj, k, fk):
     return plane(i) * (1 - fi) + plane(i + 1) * fi
 
 
+def multilinear_flat(flat, k, strides, fracs):
+    """Multilinear lookup on a row-major grid given flat, at flat indices.
+
+    ``k``: the flat index of each point's lower corner (any shape), ``strides``: the flat
+    strides of the interpolated axes, outermost first, ``fracs``: the weights toward the
+    next node along each (broadcasting with ``k``).  Nested as lo + (hi - lo) f from the
+    innermost axis out: 2^m gathers for m axes, no weight array.
+    """
+    if not strides:
+        return flat[k]
+    lo = multilinear_flat(flat, k, strides[1:], fracs[1:])
+    hi = multilinear_flat(flat, k + strides[0], strides[1:], fracs[1:])
+    return lo + (hi - lo) * fracs[0]
+
+
 def bilinear_flat(flat, k, stride, fs, fv):
     """Bilinear lookup on a row-major grid (..., n_v, n_s) given flat: ``k`` the flat
     index of each point's lower corner (its cell (iv, i_s) plus the offset of its
     slice), ``stride`` = n_s, ``fs``/``fv`` the weights toward the next s/v node."""
-    a = flat[k] + (flat[k + 1] - flat[k]) * fs
-    b = flat[k + stride] + (flat[k + stride + 1] - flat[k + stride]) * fs
-    return a + (b - a) * fv
+    return multilinear_flat(flat, k, (stride, 1), (fv, fs))
 
 
 def rows_linear(rows, i, w):

@@ -50,27 +50,20 @@ and the allowed range.
 
 Unequal radii (documented approximation, status ``APPROXIMATE``)
 -----------------------------------------------------------------
-The table is for equal spheres.  For radii R1, R2, R3 the triplet is looked up once as
-the equal-sphere triplet of the harmonic mean radius R_h = 3 / (1/R1 + 1/R2 + 1/R3)
-(gaps / R_h, V / R_h^3: one liquid body, one volume scale), and each pair force is
-scaled by that pair's Derjaguin radius R_ij = 2 R_i R_j / (R_i + R_j) instead of R_h:
-F_ij = 2 pi gamma R_ij f*_ij.  For a doublet R_ij is the radius that makes the contact
-force 2 pi gamma R cos(theta) exact; in the body each pair force comes from the
-meniscus near its own contact, whose curvature is that of the pair.  Other schemes
-(:data:`UNEQUAL_SCHEMES`, ``predict_vectors(..., unequal=...)``) were measured against
-Surface Evolver on the same triplets and are worse: one lookup per pair at R_ij
-("pair") leaves the table's v range for 6 of these 13 triplets (V / R_ij^3 varies by up
-to 8x between the pairs) and reaches 53 % where it answers; one lookup with forces * R_h
-("harmonic") 8 % median, 23 % max; the arithmetic mean 11 %, 35 %.
+The table is for equal spheres; for radii R1, R2, R3 the triplet is looked up at their
+harmonic mean radius and each pair force scaled by that pair's Derjaguin radius.  The
+approximation, the other schemes and their errors against Surface Evolver:
+:mod:`capbridge.surrogate.triplet_unequal` (:data:`UNEQUAL_RADII_ERROR`).
 
-Measured (``benchmarks/bench_triplet.py``, Evolver level 3 with the table's settings,
-``benchmarks/triplet_unequal_evolver.json``): on 13 triplets with radii ratios up to 2
-(theta 0-80 deg, v 1.1-1.5) the relative error of f_ij is 2.3 % median and 10.7 % max
-(force vectors: 7.4 % of the largest grain force at most), against 0.25 % for an
-equal-radii control; the largest errors are on the pair between the two large grains
-of a (2, 2, 1) or (2, 1, 1) triplet at theta >= 60 deg.  Measured on the completed
-sub-cube d <= 0.1 of the shipped grid (the full table was still being computed; see
-``benchmarks/RESULTS.md``).  See :data:`UNEQUAL_RADII_ERROR`.
+Where the parts live
+--------------------
+:mod:`capbridge.surrogate.triplet_nodes` reads the table's nodes (values, statuses,
+failed nodes filled, symmetrised over the grain relabellings);
+:mod:`capbridge.surrogate.grid` is the fine grid (refinement, axes, simplex kernel);
+:mod:`capbridge.surrogate.triplet_gravity` the response to gravity (a mixin of
+:class:`TripletSurrogate`); :mod:`capbridge.surrogate.triplet_holdout` the held-out
+errors (:func:`holdout_errors`, :func:`gravity_holdout_errors`);
+:func:`~capbridge.solvers.triplet.table_frame` the table frame of a triangle of centres.
 
 References
 ----------
@@ -79,34 +72,34 @@ V_coal = V0 + (theta/90 deg) dV); Derjaguin (1934) for the effective radius.
 """
 from __future__ import annotations
 
-import itertools
-import json
-
 import numpy as np
 import xarray as xr
-from scipy.interpolate import make_interp_spline
 
-from capbridge.tables import DATA_DIR
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import Status
 from capbridge.surrogate.base import SurrogateBase
+from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, si_bond
 from capbridge.surrogate.grid import Descending as _Descending
 from capbridge.surrogate.grid import FineAxis as _FineAxis
 from capbridge.surrogate.grid import Grid as _Grid
-from capbridge.surrogate.doublet import (BOND_MAX, SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE,
-                                         refine_axis, si_bond)
-from capbridge.physics.gravity import check_bond, gravity_vector, liquid_weight
+from capbridge.surrogate.grid import refine_axis
+from capbridge.surrogate.triplet_gravity import TripletGravityResponse
+from capbridge.surrogate.triplet_holdout import holdout_errors, holdout_points
+from capbridge.surrogate.triplet_nodes import (GRID_VARIABLES, PAIR_NAMES, PAIRS, cell_max,
+                                               fill_failed, node_data, symmetrise)
+from capbridge.surrogate.triplet_unequal import combine_status, unequal_scales
+from capbridge.tables import DATA_DIR
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
+# this module's public names from before its parts had their own modules (issue 17)
+from capbridge.physics.gravity import BOND_MAX
+from capbridge.solvers.triplet import table_frame
+from capbridge.status import HAS_RESULT
+from capbridge.surrogate.triplet_holdout import gravity_holdout_errors
+from capbridge.surrogate.triplet_unequal import UNEQUAL_RADII_ERROR, UNEQUAL_SCHEMES
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
            "LOWER_ENERGY_STATES", "PAIR_NAMES", "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES",
            "default_table", "table_frame", "BOND_MAX"]
-
-PAIR_NAMES = ("f12", "f13", "f23")
-#: pairs (0-based grains) in the order of PAIR_NAMES
-PAIRS = ((0, 1), (0, 2), (1, 2))
-#: values interpolated on the 5-D grid, in this order
-GRID_VARIABLES = ("f12", "f13", "f23", "pressure", "energy")
 
 #: codes of ``lower_energy_state``
 LOWER_ENERGY_STATES = {
@@ -118,12 +111,6 @@ LOWER_ENERGY_STATES = {
     3: "unknown",        # no separated-state energy in the fit inputs (or no result here)
 }
 _UNKNOWN = 3
-
-#: errors of the unequal-radii approximation against Surface Evolver (relative, f_ij),
-#: filled from benchmarks/bench_triplet.py (see the module docstring)
-UNEQUAL_RADII_ERROR = {"scheme": "harmonic_pair", "median": 0.023, "max": 0.107,
-                       "vector_max": 0.074, "n_triplets": 13, "equal_control_max": 0.0025,
-                       "source": "benchmarks/RESULTS.md, Triplet surrogate"}
 
 #: default fine-grid nodes per table interval: gaps, theta, v (chosen from the
 #: refinement error measured by benchmarks/bench_triplet.py)
@@ -137,8 +124,6 @@ _TOL = 1e-12          # relative slack at the table's edges (round-off, not rang
 
 def default_table():
     """``data/triplet_table.nc`` of this checkout."""
-    from pathlib import Path
-
     return DATA_DIR / "triplet_table.nc"
 
 
@@ -177,136 +162,8 @@ def _refine(values, axes, fine_axes, method):
         return np.ascontiguousarray(out)
     for a, (c, f) in enumerate(zip(axes, fine_axes)):
         if len(c) > 1 and f.refine > 1:
-            if _degree(method, a) == 1:
-                out = make_interp_spline(c, out, k=1, axis=a)(f.nodes)
-            else:
-                out = refine_axis(out, a, c, f.nodes)
+            out = refine_axis(out, a, c, f.nodes, _degree(method, a))
     return np.ascontiguousarray(out)
-
-
-def _linear_at(values, coarse, x):
-    """Linear interpolation of ``values`` along its first axis at one point x."""
-    j = int(np.clip(np.searchsorted(coarse, x) - 1, 0, len(coarse) - 2))
-    w = (x - coarse[j]) / (coarse[j + 1] - coarse[j])
-    return values[j] * (1 - w) + values[j + 1] * w
-
-
-def _cell_max(node_codes):
-    """Largest code over the 2^k corners of every coarse cell."""
-    c = node_codes
-    for a in range(c.ndim):
-        lo = [slice(None)] * c.ndim
-        hi = [slice(None)] * c.ndim
-        lo[a], hi[a] = slice(0, -1), slice(1, None)
-        c = np.maximum(c[tuple(lo)], c[tuple(hi)])
-    return c
-
-
-def _line_fill(v, good, axis):
-    """Linear interpolation / extrapolation of the valid nodes along ``axis`` at the
-    failed ones (lines with no valid node are left); returns (values, filled mask)."""
-    vm = np.moveaxis(np.array(v, float), axis, -1)
-    gm = np.moveaxis(np.array(good, bool), axis, -1)
-    n = vm.shape[-1]
-    x = np.arange(n, dtype=float)
-    for idx in np.ndindex(vm.shape[:-1]):
-        g = gm[idx]
-        if g.all() or not g.any():
-            continue
-        xs, ys = x[g], vm[idx][g]
-        if xs.size == 1:
-            fill = np.full(n, ys[0])
-        else:
-            fill = np.interp(x, xs, ys)
-            lo, hi = x < xs[0], x > xs[-1]
-            fill[lo] = ys[0] + (x[lo] - xs[0]) * (ys[1] - ys[0]) / (xs[1] - xs[0])
-            fill[hi] = ys[-1] + (x[hi] - xs[-1]) * (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
-        vm[idx][~g] = fill[~g]
-        gm[idx] = True
-    return np.moveaxis(vm, -1, axis), np.moveaxis(gm, -1, axis)
-
-
-def _fill_failed(values, ok, axis_order, gap_axes=(0, 1, 2)):
-    """Placeholder values at failed nodes, so that splines through the cube stay finite.
-
-    Along each axis in ``axis_order`` (theta and v), failed nodes get the linear
-    interpolation or extrapolation of the valid nodes of their line; nodes left (a
-    whole (theta, v) plane failed) get the mean of such fills along the three gap axes
-    (symmetric under relabelling), then the mean of the valid values.  Cells touching
-    a failed node carry no number (their status says why), so the fill only shapes the
-    splines in the neighbouring cells.
-    """
-    v = np.array(values, float)
-    good = np.array(ok, bool)
-    for a in axis_order:
-        v, good = _line_fill(v, good, a)
-    if not good.all() and good.any():
-        fills = [_line_fill(v, good, a) for a in gap_axes if a < v.ndim]
-        total = sum(np.where(m & ~good, f, 0.0) for f, m in fills)
-        count = sum((m & ~good).astype(int) for _, m in fills)
-        take = count > 0
-        v[take] = total[take] / count[take]
-        good = good | take
-    if not good.all():
-        v[~good] = np.nanmean(values[ok]) if ok.any() else 0.0
-    return v
-
-
-# --------------------------------------------------------------------------------------
-# the surrogate
-# --------------------------------------------------------------------------------------
-
-
-def _node_data(ds):
-    """Values (..., 5) of :data:`GRID_VARIABLES` at the table nodes, the mask of nodes
-    with a result and the node codes: 0 converged, 1 above tolerance, 2 failed (any
-    reason but the next), 3 no equilibrium of the coalesced body (failure kind
-    ``no_equilibrium``)."""
-    status = np.asarray(ds["status"].values)
-    failure = np.asarray(ds["failure"].values) if "failure" in ds else np.zeros_like(status)
-    kinds = list(json.loads(ds.attrs.get("failure_kinds", "{}")) or ["none"])
-    no_eq = kinds.index("no_equilibrium") if "no_equilibrium" in kinds else -1
-    vals = np.stack([np.asarray(ds[n].values, float) for n in
-                     ("f12", "f13", "f23", "pressure", "energy_extrapolated")], -1)
-    has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
-        np.isfinite(vals).all(-1)
-    code = np.where(status == Status.ABOVE_TOLERANCE, 1, 0)
-    code = np.where(~has, np.where(failure == no_eq, 3, 2), code)
-    return vals, has, code
-
-
-def _relabellings():
-    """For each relabelling p of the grains (new grain k = old grain p[k]): the old pair
-    of every new pair, as indices into PAIRS (the gap axes permute the same way)."""
-    out = []
-    for p in itertools.permutations(range(3)):
-        out.append([PAIRS.index(tuple(sorted((p[i], p[j])))) for i, j in PAIRS])
-    return out
-
-
-def _symmetrise(pair_values, scalar_values, codes):
-    """Average a full cube over the 6 relabellings of the grains.
-
-    The table stores every relabelled copy of each canonical point, so away from
-    ties (two equal gaps) the average changes nothing; at ties it averages the Evolver
-    noise between pair forces that are equal by symmetry (f12 = f13 at d12 = d13), so
-    that the surrogate is exactly equivariant.  ``pair_values`` (3, g, g, g, ...),
-    ``scalar_values`` (m, g, g, g, ...), ``codes`` (g, g, g, ...) -> same shapes
-    (codes: the largest over the relabellings).
-    """
-    nd = pair_values.ndim - 1
-    rest = tuple(range(3, nd))
-    f = np.zeros_like(pair_values)
-    sc = np.zeros_like(scalar_values)
-    cd = codes.copy()
-    perms = _relabellings()
-    for q in perms:
-        axes = tuple(q) + rest          # new gap axis m is old gap axis q[m]
-        for m in range(3):
-            f[m] += np.transpose(pair_values[q[m]], axes)
-        sc += np.stack([np.transpose(x, axes) for x in scalar_values])
-        cd = np.maximum(cd, np.transpose(codes, axes))
-    return f / len(perms), sc / len(perms), cd
 
 
 def _refine3(refine):
@@ -319,7 +176,7 @@ def _refine3(refine):
                            hint="fine-grid steps per table interval") for x in r)
 
 
-class TripletSurrogate(SurrogateBase):
+class TripletSurrogate(TripletGravityResponse, SurrogateBase):
     """Interpolating surrogate of a coalesced-triplet table (fit / predict).
 
     Follows the surrogate contract of :mod:`capbridge.surrogate.base` (NotFittedError,
@@ -409,7 +266,7 @@ class TripletSurrogate(SurrogateBase):
                 f"refine={self.refine_} makes a fine grid of {n_fine:,} nodes "
                 f"(> {MAX_GRID_BYTES / 1e6:g} MB); use a smaller refine")
 
-        vals, has, code = _node_data(ds)
+        vals, has, code = node_data(ds)
         status = np.asarray(ds["status"].values)
         ferr = np.where(has, np.nan_to_num(np.asarray(ds["force_error"].values, float)), 0.0)
         extra = [ferr]
@@ -423,7 +280,7 @@ class TripletSurrogate(SurrogateBase):
                       (~np.isfinite(esep)).astype(float)]
             vals = np.concatenate([vals, (vals[..., 4] - esep)[..., None]], -1)
         nv = vals.shape[-1]
-        pv, sv, code = _symmetrise(np.moveaxis(vals[..., :3], -1, 0),
+        pv, sv, code = symmetrise(np.moveaxis(vals[..., :3], -1, 0),
                                    np.concatenate([np.moveaxis(vals[..., 3:], -1, 0),
                                                    np.stack(extra)]), code)
         self.asymmetry_ = float(np.nanmax(np.abs(pv - np.moveaxis(vals[..., :3], -1, 0))))
@@ -431,26 +288,26 @@ class TripletSurrogate(SurrogateBase):
         extra = sv[nv - 3:]
         has = code <= 1
         self.node_code_ = code.astype(np.int8)
-        self.cell_code_ = np.ascontiguousarray(_cell_max(self.node_code_))
-        self.cell_force_error_ = np.ascontiguousarray(_cell_max(np.where(has, extra[0], 0.0)))
+        self.cell_code_ = np.ascontiguousarray(cell_max(self.node_code_))
+        self.cell_force_error_ = np.ascontiguousarray(cell_max(np.where(has, extra[0], 0.0)))
         masks = [has] * len(GRID_VARIABLES)
         if esep is not None:
-            self.cell_energy_error_ = np.ascontiguousarray(_cell_max(extra[1]))
+            self.cell_energy_error_ = np.ascontiguousarray(cell_max(extra[1]))
             # NaN energy_separated: no separated state exists at that node.  A cell
             # where none exists at any node: the coalesced body is the only state; at
             # some nodes only: the boundary crosses the cell, "undecided"
             none = extra[2] > 0
             self.cell_no_separated_ = np.ascontiguousarray(
-                np.where(-_cell_max(-none.astype(np.int8)) > 0, 2,
-                         np.where(_cell_max(none.astype(np.int8)) > 0, 1, 0)).astype(np.int8))
+                np.where(-cell_max(-none.astype(np.int8)) > 0, 2,
+                         np.where(cell_max(none.astype(np.int8)) > 0, 1, 0)).astype(np.int8))
             masks.append(has & ~none)                  # E_coal - E_sep: its own mask
-        filled = np.stack([_fill_failed(vals[..., k], m, (4, 3)) for k, m in
+        filled = np.stack([fill_failed(vals[..., k], m, (4, 3)) for k, m in
                            enumerate(masks)], -1)
         self._coarse = (coarse, filled)
         self.kernel_ = "simplex" if self.method != "linear" else "multilinear"
         self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
         self._coalescence(ds, coarse, coalescence_table)
-        self.holdout_ = _holdout_arrays(ds)
+        self.holdout_ = holdout_points(ds)
         self.interpolation_error_ = None
         if self.holdout_ is not None and self.holdout_["n"]:
             e = holdout_errors(self)
@@ -518,7 +375,7 @@ class TripletSurrogate(SurrogateBase):
         """Fine grids of V*_coal (gaps, theta) and of V0, dV (gaps)."""
         Vc = np.asarray(ds["volume_coalescence"].values, float)      # (g, g, g, t)
         ok = np.isfinite(Vc)
-        Vc_f = _fill_failed(Vc, ok, (3,))
+        Vc_f = fill_failed(Vc, ok, (3,))
         fine_axes, c4 = self.axes_[:4], coarse[:4]
         Vfine = _refine(Vc_f, c4, fine_axes, self.method)
         theta = self.theta_
@@ -572,8 +429,7 @@ class TripletSurrogate(SurrogateBase):
             axes = [(g, gaps_axis)] * 3 + ([] if theta_axis is None else [(t, theta_axis)])
             Wt = values
             for a, (c, x) in enumerate(axes):
-                Wt = refine_axis(Wt, a, c, x) if method == "cubic" else \
-                    make_interp_spline(c, Wt, k=1, axis=a)(x)
+                Wt = refine_axis(Wt, a, c, x, None if method == "cubic" else 1)
             n = gaps_axis.size
             I = np.sort(np.stack(np.meshgrid(*(np.arange(n),) * 3, indexing="ij"), -1), -1)
             return Wt[I[..., 0], I[..., 1], I[..., 2]]
@@ -615,8 +471,7 @@ class TripletSurrogate(SurrogateBase):
         for n in range(pts[0].size):
             y = vals
             for a, (c, x) in enumerate(zip(coarse, pts)):
-                y = _linear_at(y, c, x.flat[n]) if _degree(self.method, a) == 1 \
-                    else refine_axis(y, 0, c, np.array([x.flat[n]]))[0]
+                y = refine_axis(y, 0, c, np.array([x.flat[n]]), _degree(self.method, a))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
 
@@ -640,7 +495,7 @@ class TripletSurrogate(SurrogateBase):
             equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
             ok = True
             for lk, _ in {id(a): (a, b) for a, b in
-                          _unequal_scales(R, equal, unequal)}.values():
+                          unequal_scales(R, equal, unequal)}.values():
                 ok = ok & self.covers(*(np.asarray(d, float) / lk for d in (d12, d13, d23)),
                                       theta)
             return ok
@@ -819,103 +674,6 @@ class TripletSurrogate(SurrogateBase):
                 "'extrapolated'; below it: no number) or Surface Evolver (capbridge "
                 "solve triplet)")
 
-    # ---------------------------------------------------------------------- gravity
-    def _fit_gravity(self, ds):
-        """The table's response to gravity (if any) and its held-out validation.
-
-        ``force_gravity_gradient`` G and ``force_gravity_curvature`` C (table frame of
-        each node, :mod:`capbridge.tables.triplet_gravity`) are divided by the
-        node's liquid weight W_node = v V*_coal / (2 pi) and interpolated multilinearly
-        on the raw (d12, d13, d23, theta, gravity_v) grid (the simplex kernel is 2.6x
-        faster but its held-out error is 15 % larger at Bo = 1); a lookup multiplies them by
-        the weight W = V*/(2 pi) of the asked volume.  Written so, sum_i G_i = W I holds
-        at every point to the largest ``gravity_sum_residual`` of the cell's nodes
-        (multilinear weights are a convex combination), also between nodes where
-        v V*_coal is not multilinear, and clipping v to the response's range keeps the
-        grains' shares of the weight.
-        """
-        self.has_gravity_ = "force_gravity_gradient" in ds
-        self.gravity_bond_max_ = 0.0
-        self.gravity_errors_ = None
-        if not self.has_gravity_:
-            return
-        dims = ("d12", "d13", "d23", "theta", "gravity_v")
-        tdims = dims + ("grain", "component", "gravity_component")
-        G = np.asarray(ds["force_gravity_gradient"].transpose(*tdims).values, float)
-        C = np.asarray(ds["force_gravity_curvature"].transpose(*tdims).values, float)
-        st = np.asarray(ds["gravity_status"].transpose(*dims).values)
-        res = np.asarray(ds["gravity_sum_residual"].transpose(*dims).values, float)
-        gv = np.asarray(ds["gravity_v"].values, float)
-        Vc = np.asarray(ds["volume_coalescence"].transpose(*dims[:4]).values, float)
-        W = liquid_weight(Vc[..., None] * gv)
-        ok = np.isin(st, [int(x) for x in HAS_RESULT]) & np.isfinite(W) & (W > 0) & \
-            np.isfinite(G).all((-3, -2, -1)) & np.isfinite(C).all((-3, -2, -1)) & \
-            np.isfinite(res)
-        Wn = np.where(ok, W, 1.0)[..., None, None, None]
-        vals = np.concatenate([(G / Wn).reshape(ok.shape + (27,)),
-                               (C / Wn).reshape(ok.shape + (27,))], -1)
-        vals[~ok] = 0.0
-        if gv.size == 1:          # one volume ratio: the response taken constant in v
-            gv = np.array([gv[0], gv[0] * 2.0])
-            vals, ok, res = (np.concatenate([x, x], axis=4) for x in (vals, ok, res))
-            self._gravity_single_v = True
-        else:
-            self._gravity_single_v = False
-        self.gravity_v_ = np.asarray(ds["gravity_v"].values, float)
-        coarse = [self.gaps_] * 3 + [self.theta_, gv]
-        self.gravity_axes_ = [_FineAxis(c, 1) for c in coarse]
-        self.gravity_grid_ = _Grid(np.ascontiguousarray(vals), "multilinear")
-        self.gravity_cell_bad_ = np.ascontiguousarray(_cell_max((~ok).astype(np.int8)))
-        self.gravity_cell_residual_ = np.ascontiguousarray(
-            _cell_max(np.where(ok, res, 0.0)))
-        self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum()),
-                               "total": int(st.size)}
-        if "gravity_holdout_force" in ds:
-            self.gravity_errors_ = gravity_holdout_errors(self, ds)
-            self.gravity_bond_max_ = self.gravity_errors_["bond_max_validated"]
-
-    def _gravity_lookup(self, g, t, v, volume):
-        """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
-        ``volume`` (lookup units), the cell's largest sum-rule residual and a status
-        per point (int8 :class:`~capbridge.status.Status`): CONVERGED (available),
-        APPROXIMATE (v outside the response's range: nearest v), NOT_CONVERGED (not
-        available: a node of the cell has no response)."""
-        gv = self.gravity_v_
-        clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
-        vq = np.clip(v, gv[0], gv[-1])
-        loc = [ax.locate(np.asarray(x, float)) for ax, x in
-               zip(self.gravity_axes_, list(g) + [t, vq])]
-        idx, fr = [a[0] for a in loc], [a[1] for a in loc]
-        vals = self.gravity_grid_(idx, fr)
-        W = liquid_weight(volume)[:, None, None, None]
-        G = vals[:, :27].reshape(-1, 3, 3, 3) * W
-        C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
-        cell = tuple(idx)
-        bad = self.gravity_cell_bad_[cell] > 0
-        code = np.where(bad, np.int8(Status.NOT_CONVERGED),
-                        np.where(clipped, np.int8(Status.APPROXIMATE),
-                                 np.int8(Status.CONVERGED))).astype(np.int8)
-        return G, C, self.gravity_cell_residual_[cell], code
-
-    def gravity_summary(self):
-        """The gravity content of the fitted table (JSON-friendly dict, or None): the
-        response's volume ratios, nodes with a response, the supported and validated
-        Bond ranges and the held-out errors (:func:`gravity_holdout_errors`)."""
-        self._check_fitted()
-        if not self.has_gravity_:
-            return None
-        e = self.gravity_errors_
-        out = {"gravity_v": self.gravity_v_.tolist(), "nodes": self.gravity_nodes_,
-               "bond_max_supported": BOND_MAX,
-               "bond_max_validated": float(self.gravity_bond_max_)}
-        if e is not None:
-            out["holdout"] = {k: e[k] for k in ("threshold", "threshold_source", "bonds",
-                                                "max_error_by_bond",
-                                                "max_effect_error_by_bond",
-                                                "n_cases_by_bond", "n_cases",
-                                                "n_cases_used")}
-        return out
-
     # ---------------------------------------------------------------------- vectors
     def predict_vectors(self, centres, volume, theta, radii=None, unequal="harmonic_pair",
                         bond=0.0, gravity=None):
@@ -1026,7 +784,7 @@ class TripletSurrogate(SurrogateBase):
         equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
         looks = []                 # per pair: (lookup scale, force scale, lookup)
         cache = {}
-        for k, (lk, fk) in enumerate(_unequal_scales(R, equal, unequal)):
+        for k, (lk, fk) in enumerate(unequal_scales(R, equal, unequal)):
             if id(lk) not in cache:
                 cache[id(lk)] = self.predict(*(lookup_gaps[..., m] / lk for m in range(3)),
                                              V / lk**3, t)
@@ -1041,7 +799,7 @@ class TripletSurrogate(SurrogateBase):
         res["force_error"] = np.max([look["force_error"] * fk for _, fk, look in looks], 0)
         status = r["status"]
         for _, _, look in looks[1:]:
-            status = _combine_status(status, look["status"])
+            status = combine_status(status, look["status"])
         if not np.all(equal):
             has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
             status = np.where(has & ~equal, np.int8(Status.APPROXIMATE), status)
@@ -1058,55 +816,6 @@ class TripletSurrogate(SurrogateBase):
             self._add_gravity(res, C, V, t, lookup_gaps, s, shape, bond, gravity)
         return res
 
-    def _check_bond(self, bond):
-        return check_bond(bond, self.has_gravity_, "triplet", "force_gravity_gradient",
-                          "Surface Evolver (capbridge solve triplet --bond)")
-
-    def _add_gravity(self, res, centres, V, t, gaps, s, shape, bond, gravity):
-        """Add the response to gravity to ``res`` (see :meth:`predict_vectors`)."""
-        bo = np.broadcast_to(self._check_bond(bond), shape)
-        direction = (0.0, 0.0, -1.0) if gravity is None else gravity
-        b = np.broadcast_to(gravity_vector(bo, direction), shape + (3,))
-        res["gravity"] = np.array(b)
-        F = res["forces"]
-        first = np.zeros(shape + (3, 3))
-        second = np.zeros(shape + (3, 3))
-        resid = np.zeros(shape)
-        status = np.array(res["status"], np.int8)
-        # the answer without gravity, for callers that fall back on their own where
-        # the response has no number (the DEM engine: the liquid's weight shared)
-        res["status_without_gravity"] = status.copy()
-        on = bo > 0
-        if on.any():
-            s = np.broadcast_to(s, shape)[on]
-            Q = table_frame(centres[on])                      # table -> caller
-            Vl = V[on] / s**3
-            g = [gaps[on][:, m] / s for m in range(3)]
-            G, Cv, resid_on, code = self._gravity_lookup(g, t[on], res["v"][on], Vl)
-            bt = np.matmul(b[on][:, None, :], Q)[:, 0] * (s**2)[:, None]   # lookup units
-            # the two terms of triplet_gravity_forces, as batched products
-            d1 = np.matmul(G, bt[:, None, :, None])[..., 0]
-            d2 = 0.5 * np.matmul(Cv, (bt**2)[:, None, :, None])[..., 0]
-            QT = np.swapaxes(Q, -1, -2) * s[:, None, None]                 # back, F* units
-            first[on] = np.matmul(d1, QT)
-            second[on] = np.matmul(d2, QT)
-            resid[on] = resid_on
-            st = status[on]
-            has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
-            approx = (code == Status.APPROXIMATE) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
-            st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
-            st = np.where((code == Status.NOT_CONVERGED)
-                          & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
-                          np.int8(Status.NOT_CONVERGED), st)
-            status[on] = st
-            nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
-            first[nores] = np.nan
-            second[nores] = np.nan
-        res["forces"] = np.where(on[..., None, None], F + first + second, F)
-        res["gravity_first_order"] = first
-        res["gravity_second_order"] = second
-        res["gravity_sum_residual"] = resid
-        res["status"] = status
 
     def predict_si(self, radius, surface_tension, centres, volume, theta,
                    density_difference=None, gravity=None):
@@ -1178,246 +887,3 @@ class TripletSurrogate(SurrogateBase):
         if kw:
             out["bond"] = np.asarray(kw["bond"])
         return out
-
-
-#: unequal-radii approximations: (length scale of the lookup, scale of the pair force)
-#: per pair, R_ij = 2 R_i R_j / (R_i + R_j) the pair's Derjaguin radius, R_h the
-#: harmonic mean 3 / sum(1/R_i) and R_a the arithmetic mean of the three radii
-UNEQUAL_SCHEMES = {
-    "pair": "each pair force from the triplet scaled by its Derjaguin radius R_ij "
-            "(lengths / R_ij, force * R_ij): three lookups",
-    "harmonic_pair": "one lookup at the harmonic mean radius R_h (lengths / R_h), each "
-                     "pair force scaled by R_ij",
-    "harmonic": "one lookup at R_h, forces * R_h",
-    "arithmetic": "one lookup at the arithmetic mean radius R_a, forces * R_a",
-}
-
-
-def _unequal_scales(R, equal, scheme):
-    """[(lookup scale, force scale)] per pair (PAIRS order) for radii R (..., 3)."""
-    check_choice("unequal", scheme, tuple(UNEQUAL_SCHEMES))
-    if np.all(equal):
-        s = R[..., 0]                     # exact: the table scaled by the radius
-        return [(s, s)] * 3
-    Rij = [np.where(equal, R[..., 0], 2 * R[..., i] * R[..., j] / (R[..., i] + R[..., j]))
-           for i, j in PAIRS]
-    Rh = np.where(equal, R[..., 0], 3.0 / np.sum(1.0 / R, axis=-1))
-    Ra = np.where(equal, R[..., 0], np.mean(R, axis=-1))
-    return {"pair": list(zip(Rij, Rij)), "harmonic_pair": [(Rh, r) for r in Rij],
-            "harmonic": [(Rh, Rh)] * 3, "arithmetic": [(Ra, Ra)] * 3}[scheme]
-
-
-#: precedence of statuses when one point is answered by several lookups: a status
-#: without a result first, then EXTRAPOLATED, ABOVE_TOLERANCE, CONVERGED
-_RANK = np.full(max(Status) + 1, 3, np.int8)
-_RANK[[Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.EXTRAPOLATED]] = (0, 1, 2)
-
-
-def _combine_status(a, b):
-    """Status of a point answered by several lookups (precedence :data:`_RANK`)."""
-    a, b = np.asarray(a, np.int8), np.asarray(b, np.int8)
-    return np.where(_RANK[b] > _RANK[a], b, a).astype(np.int8)
-
-
-# --------------------------------------------------------------------------------------
-# gravity: frames and the held-out validation
-# --------------------------------------------------------------------------------------
-
-
-def table_frame(centres):
-    """Rotation Q (..., 3, 3) from the table frame of a triplet to the caller's frame.
-
-    The table frame (:func:`capbridge.solvers.triplet.triplet_geometry`) has grains 2
-    and 3 on the x axis (grain 3 at +x), grain 1 at z > 0 and the centres in the plane
-    y = 0.  The columns of Q are its axes in the caller's frame:
-
-        e_x = (c3 - c2) / |c3 - c2|,   e_z = the part of c1 - c2 normal to e_x, normalised,
-        e_y = e_z x e_x,
-
-    so a vector u_t of the table frame is Q u_t in the caller's, and det Q = +1.
-
-    Parameters
-    ----------
-    centres : array_like (..., 3, 3)
-        Centres of grains 1, 2, 3 (rows) in the caller's frame (any unit).
-
-    >>> from capbridge.solvers.triplet import triplet_geometry
-    >>> np.allclose(table_frame(triplet_geometry(0.1, 0.05, 0.2).centres), np.eye(3))
-    True
-    """
-    c = np.asarray(centres, float)
-    ex = c[..., 2, :] - c[..., 1, :]
-    ex = ex / np.linalg.norm(ex, axis=-1, keepdims=True)
-    a = c[..., 0, :] - c[..., 1, :]
-    ez = a - np.sum(a * ex, -1, keepdims=True) * ex
-    ez = ez / np.linalg.norm(ez, axis=-1, keepdims=True)
-    ey = np.cross(ez, ex)
-    return np.stack([ex, ey, ez], -1)
-
-
-def gravity_holdout_errors(surrogate, table=None):
-    """Errors of the surrogate with gravity against the table's direct Evolver
-    minimisations with gravity (``gravity_holdout_*``), and the validated Bond range.
-
-    Each held-out case (gaps, theta, v, direction of gravity in the table frame) is
-    solved directly at every Bond number of the table (Bo = 0 included).  At each point
-    with a result:
-
-    * ``error``: max_i |F_i,model(b) - F_i,direct(b)| / max_i |F_i,direct(b)|, the model
-      being :meth:`TripletSurrogate.predict_vectors` at the case's total volume (table
-      and response: what a user gets);
-    * ``effect_error``: the same for the gravity effect alone, (F(b) - F(0)) of the
-      model (its response terms, i.e. F(0) taken as the direct Bo = 0 point of the
-      case on both sides) against F_direct(b) - F_direct(0), relative to the same
-      largest grain force.
-
-    ``threshold`` is the surrogate's own held-out error without gravity
-    (``interpolation_error_['max_rel_to_largest']``: pair forces relative to the
-    largest pair force of the point; NaN without held-out points, then nothing is
-    validated); ``bond_max_validated`` the largest held-out Bo such that at every Bo up
-    to it every used case has ``error`` <= threshold (0 if none).
-
-    Returns
-    -------
-    dict
-        ``bond``, ``orientation``, ``case`` (index of the case), ``error``,
-        ``effect_error``, ``used`` (arrays over the held-out points); ``bonds``,
-        ``max_error_by_bond``, ``max_effect_error_by_bond`` (lists, NaN where no case
-        answered), ``n_cases_by_bond`` (cases where both the direct minimisation and
-        the surrogate have a result: a case the surrogate does not answer, e.g. a cell
-        of the response without a result, is not counted against the range),
-        ``threshold``, ``threshold_source``, ``bond_max_validated``, ``n_cases``,
-        ``n_cases_used``.
-    """
-    from capbridge.solvers.triplet import triplet_geometry
-
-    ds = surrogate.table_ if table is None else table
-    h = {k: np.asarray(ds[f"gravity_holdout_{k}"].values) for k in
-         ("d12", "d13", "d23", "theta", "v", "volume", "bond", "status")}
-    direction = np.asarray(ds["gravity_holdout_direction"].values, float)
-    Fd = np.asarray(ds["gravity_holdout_force"].values, float)
-    orient = np.asarray(ds["gravity_holdout_orientation"].values).astype(str)
-    n = h["bond"].size
-    key = [tuple(np.round([h["d12"][k], h["d13"][k], h["d23"][k], h["theta"][k], h["v"][k],
-                           *direction[k]], 9)) for k in range(n)]
-    cases = {k: i for i, k in enumerate(dict.fromkeys(key))}
-    case = np.array([cases[k] for k in key])
-    okd = np.isin(h["status"], [int(x) for x in HAS_RESULT]) & np.isfinite(Fd).all((1, 2))
-    err = np.full(n, np.nan)
-    eff = np.full(n, np.nan)
-    keep = surrogate.out_of_range
-    surrogate.out_of_range = "clip"
-    try:
-        for k in range(n):
-            zero = np.flatnonzero((case == case[k]) & (h["bond"] == 0) & okd)
-            if not okd[k]:
-                continue
-            cen = triplet_geometry(h["d12"][k], h["d13"][k], h["d23"][k]).centres
-            bo = min(float(h["bond"][k]), BOND_MAX)
-            r = surrogate.predict_vectors(cen, float(h["volume"][k]), float(h["theta"][k]),
-                                          bond=bo, gravity=direction[k]
-                                          if np.any(direction[k]) else None)
-            if not np.isin(r["status"], HAS_RESULT + (Status.EXTRAPOLATED,)):
-                continue
-            scale = np.max(np.linalg.norm(Fd[k], axis=-1))
-            err[k] = np.max(np.abs(r["forces"] - Fd[k])) / scale
-            if zero.size:
-                model = r.get("gravity_first_order", 0.0) + r.get("gravity_second_order", 0.0)
-                eff[k] = np.max(np.abs(model - (Fd[k] - Fd[zero[0]]))) / scale
-    finally:
-        surrogate.out_of_range = keep
-    ie = surrogate.interpolation_error_
-    thr = float(ie["max_rel_to_largest"]) if ie else np.nan
-    bonds = sorted(set(float(b) for b in h["bond"]))
-    used = np.isfinite(err)
-    by = [float(np.max(err[used & (h["bond"] == b)])) if np.any(used & (h["bond"] == b))
-          else np.nan for b in bonds]
-    nby = [int(len(set(case[used & (h["bond"] == b)].tolist()))) for b in bonds]
-    eby = [float(np.nanmax(eff[used & (h["bond"] == b)]))
-           if np.any(used & (h["bond"] == b) & np.isfinite(eff)) else np.nan for b in bonds]
-    bmax = 0.0
-    for b, e in zip(bonds, by):
-        if not (np.isfinite(e) and e <= thr):
-            break
-        bmax = b
-    return {"bond": h["bond"].astype(float), "orientation": orient, "case": case,
-            "error": err, "effect_error": eff, "used": used, "bonds": bonds,
-            "max_error_by_bond": by, "max_effect_error_by_bond": eby,
-            "n_cases_by_bond": nby, "threshold": thr,
-            "threshold_source": "held-out pair forces without gravity, max error relative "
-                                "to the largest pair force (holdout_errors)",
-            "bond_max_validated": float(bmax), "n_cases": len(cases),
-            "n_cases_used": int(len(set(case[used].tolist())))}
-
-
-# --------------------------------------------------------------------------------------
-# error model
-# --------------------------------------------------------------------------------------
-
-
-def _holdout_arrays(ds):
-    if "holdout_f12" not in ds:
-        return None
-    h = {k: np.asarray(ds[f"holdout_{k}"].values, float) for k in
-         ("d12", "d13", "d23", "theta", "v", "volume", "f12", "f13", "f23")}
-    h["status"] = np.asarray(ds["holdout_status"].values)
-    h["ok"] = np.isin(h["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
-        np.isfinite(np.stack([h[n] for n in PAIR_NAMES])).all(0)
-    h["n"] = int(h["ok"].sum())
-    return h
-
-
-def holdout_errors(surrogate, by="volume", permute=False):
-    """Relative error of the pair forces against the table's held-out Evolver points.
-
-    The held-out points (random geometries, angles and volume ratios inside the grid,
-    solved one Evolver level finer than the table) are looked up at their total volume
-    V* (``by="volume"``, what a user does: includes the error of V*_coal) or at their
-    volume ratio v (``by="v"``: the interpolation of the forces alone).  ``permute``:
-    every point also under the 5 relabellings of its grains.
-
-    Returns a dict: ``rel_error`` (n, 3) |f_sur / f_held - 1| per pair, ``used`` mask
-    (both the held-out point and the lookup have a result), ``median_rel_error``,
-    ``max_rel_error`` over the used pair forces, ``n`` points used.
-    """
-    h = surrogate.holdout_
-    if h is None:
-        raise CapbridgeInputError("the table has no held-out points (holdout_*)")
-    g = np.stack([h["d12"], h["d13"], h["d23"]], 1)
-    f_ref = np.stack([h[n] for n in PAIR_NAMES], 1)
-    perms = list(itertools.permutations(range(3))) if permute else [(0, 1, 2)]
-    errs, used, refs = [], [], []
-    keep = surrogate.out_of_range
-    surrogate.out_of_range = "clip"          # v of a held-out point may sit on the edge
-    try:
-        for p in perms:
-            # grain k of the relabelled triplet is grain p[k] of the held-out one
-            gap = {(i, j): g[:, PAIRS.index(tuple(sorted((i, j))))] for i, j in PAIRS}
-            q = [gap[tuple(sorted((p[i], p[j])))] for i, j in PAIRS]
-            if by == "v":
-                Vc = surrogate.predict(*q, 1.0, h["theta"])["volume_coalescence"]
-                vol = h["v"] * Vc
-            else:
-                vol = h["volume"]
-            r = surrogate.predict(*q, vol, h["theta"])
-            f_sur = np.stack([r[n] for n in PAIR_NAMES], 1)
-            ref = np.stack([f_ref[:, PAIRS.index(tuple(sorted((p[i], p[j]))))]
-                            for i, j in PAIRS], 1)
-            ok = h["ok"] & np.isin(r["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE))
-            errs.append(np.abs(f_sur / ref - 1.0))
-            refs.append(np.abs(ref))
-            used.append(ok)
-    finally:
-        surrogate.out_of_range = keep
-    e = np.concatenate(errs)
-    u = np.concatenate(used)
-    sel = e[u]
-    # the same errors relative to the largest pair force of the point (small pair
-    # forces, e.g. at theta -> 80 deg and large v, make the plain relative error large)
-    ref_all = np.concatenate(refs)
-    e_max = e * ref_all / ref_all.max(axis=1, keepdims=True)
-    return {"rel_error": e, "used": u,
-            "median_rel_error": float(np.median(sel)) if sel.size else np.nan,
-            "max_rel_error": float(np.max(sel)) if sel.size else np.nan,
-            "max_rel_to_largest": float(np.max(e_max[u])) if sel.size else np.nan,
-            "n": int(u.sum()), "by": by}
