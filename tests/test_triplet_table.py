@@ -67,6 +67,41 @@ def test_cube_expansion_permutes_pair_forces_and_rotates_vectors():
         assert cube["volume_coalescence"][a, b, c, 0] == k
 
 
+def test_packings_grid_computes_the_bridge_gaps_domain_only():
+    """The second table's grid (issue 18): bridge gaps (the two smaller) up to 0.2, the
+    open side up to 0.6; the cube's nodes with two gaps above 0.2 are not computed and
+    stored as such; held-out points fall in the computed domain."""
+    from capbridge.tables.triplet import FAILURE_KINDS, _holdout_points
+
+    grid = TripletGrid.packings()
+    canon = grid.canonical_geometries()
+    assert len(canon) == 28                   # a <= b <= 0.2, b <= c <= 0.6 on 6 gaps
+    assert np.all(canon[:, 1] <= 0.2 + 1e-12) and canon[:, 2].max() == 0.6
+    assert max(grid.v) == 5.0 and grid.as_dict()["max_bridge_gap"] == 0.2
+    per = {**{f: np.ones((len(canon), 1, 1)) for f in PAIR_NAMES}, "status": np.zeros((len(canon), 1, 1), np.int8),
+           "failure": np.zeros((len(canon), 1, 1), np.int8),
+           "volume_coalescence": np.ones((len(canon), 1))}
+    cube = _expand_to_cube(grid, canon, per)
+    g = np.asarray(grid.gaps)
+    n_out = 0
+    for a, b, c in np.ndindex(6, 6, 6):
+        inside = np.sort([g[a], g[b], g[c]])[1] <= 0.2 + 1e-12
+        n_out += not inside
+        if inside:
+            assert cube["status"][a, b, c, 0, 0] == 0 and cube["f12"][a, b, c, 0, 0] == 1
+        else:
+            assert cube["status"][a, b, c, 0, 0] == Status.NOT_COMPUTED
+            assert cube["failure"][a, b, c, 0, 0] == list(FAILURE_KINDS).index("not_computed")
+            assert np.isnan(cube["f12"][a, b, c, 0, 0])
+            assert np.isnan(cube["volume_coalescence"][a, b, c, 0])
+    assert n_out > 0
+    hg, ht, hv = _holdout_points(grid, 200, seed=1)
+    assert np.all(np.diff(hg, axis=1) >= 0) and np.all(hg[:, 1] <= 0.2) and hg[:, 2].max() > 0.4
+    assert hv.max() <= 5.0 and ht.max() <= 80.0
+    # the first table's grid computes its whole cube
+    assert len(TripletGrid().canonical_geometries()) == 10
+
+
 def test_failure_kinds_from_driver_reasons():
     assert failure_kind(Status.CONVERGED, "") == 0
     assert failure_kind(Status.NOT_CONVERGED, "level 2: pinch: bridge 1 pinching off") == 1

@@ -73,6 +73,8 @@ FAILURE_KINDS = {
     "timeout": "an Evolver run exceeded its time limit",
     "other": "any other failure (reason in the sweep log)",
     "no_reference": "no coalescence volume of the separate bridges was found",
+    "not_computed": "outside the computed domain of the grid (two gaps above its "
+                    "max_bridge_gap)",
 }
 _FAILURE_WORDS = (("no_equilibrium", ("pinch", "contact line", "vanished", "energy below",
                                       "runaway", "neck")),
@@ -130,11 +132,19 @@ for (_i, _j), _f in zip(PAIRS, PAIR_NAMES):
 
 @dataclasses.dataclass(frozen=True)
 class TripletGrid:
-    """Axes of a coalesced-triplet table (gaps / r, theta in degrees, v = V*/V*_coal)."""
+    """Axes of a coalesced-triplet table (gaps / r, theta in degrees, v = V*/V*_coal).
+
+    ``max_bridge_gap``: only geometries whose two smaller gaps (the two bridges on the
+    shared grain) are at most this are computed; the largest gap, the open side of the
+    triangle, runs over the whole gap axis.  That is the domain packings reach (issue
+    18: the bridge gaps are contacts, the third side opens up to ~0.6 r); the stored
+    cube's other nodes are ``not_computed``.  None: every geometry of the cube.
+    """
 
     gaps: tuple = (0.0, 0.1, 0.2)
     theta: tuple = (0.0, 20.0, 40.0, 60.0, 80.0)
     v: tuple = (0.7, 0.85, 1.0, 1.25, 1.6, 2.0)
+    max_bridge_gap: float | None = None
 
     @classmethod
     def shipped(cls, quick=False):
@@ -145,15 +155,38 @@ class TripletGrid:
             return cls((0.05, 0.15), (0.0, 30.0), (1.0, 1.3))
         return cls()
 
+    @classmethod
+    def packings(cls):
+        """The grid of the second triplet table (issue 18): bridge gaps 0-0.2, the open
+        side up to 0.6, theta 0-80 deg, v up to 5 (the p99 of v at 5 % water in 1,000-grain
+        packings is 4.6).  Axes continue the first table's spacing: gaps by 0.1 to
+        0.3, then 0.15 (the open side's pull decays smoothly); v geometric, ratio ~1.25."""
+        return cls(gaps=(0.0, 0.1, 0.2, 0.3, 0.45, 0.6),
+                   v=(0.7, 0.85, 1.0, 1.25, 1.6, 2.0, 2.5, 3.2, 4.0, 5.0),
+                   max_bridge_gap=0.2)
+
     def as_dict(self):
-        return {k: [float(x) for x in v] for k, v in dataclasses.asdict(self).items()}
+        out = {k: [float(x) for x in v] for k, v in dataclasses.asdict(self).items()
+               if k != "max_bridge_gap"}
+        if self.max_bridge_gap is not None:
+            out["max_bridge_gap"] = float(self.max_bridge_gap)
+        return out
+
+    def computed(self, sorted_gaps):
+        """True where sorted gap triples (..., 3) lie in the computed domain."""
+        g = np.asarray(sorted_gaps, float)
+        if self.max_bridge_gap is None:
+            return np.ones(g.shape[:-1], bool)
+        return g[..., 1] <= self.max_bridge_gap + 1e-12
 
     def canonical_geometries(self):
-        """Sorted gap triples (d12 <= d13 <= d23) from the gap axis, (n, 3)."""
+        """Sorted gap triples (d12 <= d13 <= d23) from the gap axis, (n, 3): those of
+        the computed domain (``max_bridge_gap``)."""
         g = np.asarray(self.gaps, float)
         idx = [(a, b, c) for a in range(g.size) for b in range(a, g.size)
                for c in range(b, g.size)]
-        return g[np.array(idx)]
+        canon = g[np.array(idx)]
+        return canon[self.computed(canon)]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -332,7 +365,11 @@ def _expand_to_cube(grid, canon, values):
             for c in range(ng):
                 gaps = (g[a], g[b], g[c])
                 srt, perm = canonical_triplet(*gaps)
-                k = index[tuple(np.round(srt, 12))]
+                k = index.get(tuple(np.round(srt, 12)))
+                if k is None:                  # outside the computed domain
+                    for name in out:
+                        out[name][a, b, c] = _not_computed(name, out[name].dtype)
+                    continue
                 # pair (i, j) of this point is pair (inv[i], inv[j]) of the canonical one
                 inv = np.argsort(perm)
                 for name, v in values.items():
@@ -359,10 +396,27 @@ def _expand_to_cube(grid, canon, values):
     return out
 
 
+def _not_computed(name, dtype):
+    """The stored value of a cube node outside the computed domain."""
+    if name == "status":
+        return Status.NOT_COMPUTED
+    if name == "failure":
+        return list(FAILURE_KINDS).index("not_computed")
+    if name == "refinement":
+        return -1
+    return 0 if np.issubdtype(dtype, np.integer) else np.nan
+
+
 def _holdout_points(grid, n, seed):
-    """Random canonical geometries, angles and volume ratios inside the grid's box."""
+    """Random canonical geometries, angles and volume ratios inside the grid's box
+    (and its computed domain: the two smaller gaps up to ``max_bridge_gap``)."""
     rng = np.random.default_rng(seed)
-    g = np.sort(rng.uniform(min(grid.gaps), max(grid.gaps), (n, 3)), axis=1)
+    lo, hi = min(grid.gaps), max(grid.gaps)
+    if grid.max_bridge_gap is None:
+        g = np.sort(rng.uniform(lo, hi, (n, 3)), axis=1)
+    else:
+        pair = np.sort(rng.uniform(lo, grid.max_bridge_gap, (n, 2)), axis=1)
+        g = np.column_stack([pair, rng.uniform(pair[:, 1], hi)])
     t = rng.uniform(min(grid.theta), max(grid.theta), n)
     v = rng.uniform(min(grid.v), max(grid.v), n)
     return g, t, v

@@ -97,7 +97,7 @@ class GravityPlan:
         for case in self.cases:
             gaps, theta, v = case[:3]
             ok = (all(within(g, grid.gaps) for g in gaps) and within(theta, grid.theta)
-                  and within(v, grid.v))
+                  and within(v, grid.v) and bool(grid.computed(np.sort(gaps))))
             (inside if ok else outside).append(case)
         return tuple(inside), tuple(outside)
 
