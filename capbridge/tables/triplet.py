@@ -479,12 +479,15 @@ def build_triplet_table(grid: TripletGrid, *, plan: EvolverPlan | None = None,
     Gp = np.repeat(canon, nt * nv, axis=0)
     pts = {"d12": Gp[:, 0], "d13": Gp[:, 1], "d23": Gp[:, 2],
            "theta": np.tile(np.repeat(theta, nv), nc), "volume": vol.ravel()}
-    # the exact separated states first: minutes, where the Evolver phase takes hours
-    sep = phase("separated_energies", separated_chunk, pts, 4, {})
     if exact_only:
+        # the exact separated states: hours for a large grid, so they can run in their
+        # own process beside the full build (whose Evolver phase comes first and which
+        # then finds these chunks done)
+        phase("separated_energies", separated_chunk, pts, 4, {})
         return None
     res = phase("coalesced_bodies", functools.partial(coalesced_chunk, plan=plan), pts, 1,
                 plan.settings())
+    sep = phase("separated_energies", separated_chunk, pts, 4, {})
     shape = (nc, nt, nv)
     per = {name: res[name].reshape(shape) for name in _POINT_OUTPUTS
            if name not in _FORCE_COLUMNS}
