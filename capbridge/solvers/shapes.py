@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-from pathlib import Path
 
 import numpy as np
 
@@ -47,7 +46,7 @@ __all__ = ["LiquidShape", "doublet_shape", "write_shape", "shape_paths"]
 DOUBLET_MESH = (81, 72)
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)     # arrays: no element-wise __eq__
 class LiquidShape:
     """The liquid-gas surface of a solved case, its grains and the case.
 
@@ -115,17 +114,18 @@ class LiquidShape:
                  f"theta={_values(self.contact_angles)} deg",
                  f"V*={'+'.join(f'{v:.6g}' for v in self.volumes)}",
                  f"Bo={self.bond:.6g}" + ("" if not self.bond or self.gravity_dir is None
-                                          else f" along ({_values(self.gravity_dir, ',')})"),
+                                          else " along ({:.6g},{:.6g},{:.6g})".format(
+                                              *self.gravity_dir)),
                  f"status {self.status}", f"{self.method}, {len(self.triangles)} triangles"]
         return "; ".join(parts)[:255]
 
 
-def _values(values, sep=" "):
+def _values(values):
     """One value if all are equal, else all of them (6 significant digits)."""
     v = np.asarray(values, float).ravel()
     if v.size and np.all(v == v[0]):
         return f"{v[0]:.6g}"
-    return sep.join(f"{x:.6g}" for x in v)
+    return " ".join(f"{x:.6g}" for x in v)
 
 
 # --------------------------------------------------------------------------------------
@@ -307,6 +307,6 @@ def _shape_of(obj):
     if isinstance(status, Status):
         status = status_name(status)
     raise CapbridgeInputError(
-        f"no liquid surface to write (status {status or 'unknown'}): a surface is kept "
-        "only for a result with numbers (converged, above_tolerance) solved with "
-        "keep_shape=True")
+        f"no liquid surface to write (status {status or 'unknown'}): Surface Evolver "
+        "keeps one only for a result with numbers (converged, above_tolerance) solved "
+        "with keep_shape=True; the exact doublet's is made by doublet_shape()")
