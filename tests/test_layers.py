@@ -1,6 +1,6 @@
 """The import contract of the layout: each layer imports only from the layers below it.
 
-    core (dimensionless, status, validation, tabular_io, version) <- physics <- solvers <- tables
+    core (dimensionless, status, validation, tabular_io, version, vtk_io) <- physics <- solvers <- tables
     <- surrogate <- dem <- yade <- studies <- cli
 
 Read from the source (``ast``), every ``import`` counts, at module level or inside a
@@ -19,7 +19,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "capbridge"
 LAYERS = ("core", "physics", "solvers", "tables", "surrogate", "dem", "yade", "studies", "cli")
-CORE = ("dimensionless", "status", "validation", "tabular_io", "version")
+CORE = ("dimensionless", "status", "validation", "tabular_io", "version", "vtk_io")
 EXEMPT = ("capbridge", "capbridge._legacy")
 
 

@@ -46,12 +46,15 @@ import dataclasses
 import itertools
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 from scipy.optimize import brentq
 
-from capbridge.dimensionless import centre_distance, opening_angle, triplet_centres
+from capbridge.dimensionless import opening_angle, triplet_centres
 from capbridge.status import Status
 from capbridge.validation import CapbridgeInputError, check_range
+
+# the exact meridian of a doublet, used by the coalescence criteria (and kept importable
+# from here, where it was first)
+from capbridge.solvers.young_laplace import bridge_meridian
 
 __all__ = [
     "TripletGeometry",
@@ -258,44 +261,6 @@ def uncoalesced_state(volume, geom, theta, bridges=((0, 1), (0, 2)), fractions=N
         status = np.where(~ok & (status == Status.CONVERGED), r["status"], status)
     return {"bridge": per, "forces": forces, "energy": np.where(status == 0, energy, np.nan),
             "status": status, "volume": V, "bridges": bridges, "fractions": w}
-
-
-# --------------------------------------------------------------------------------------
-# exact meridian of a doublet
-# --------------------------------------------------------------------------------------
-
-
-def bridge_meridian(gap, pressure, beta1, beta2, theta1, theta2=None, n=801):
-    """Meridian (x, y) of the exact bridge between unit spheres at (0, 0) and (2 + gap, 0).
-
-    ``pressure`` P*, ``beta1``, ``beta2``, contact angles in degrees (the output of
-    :func:`~capbridge.solvers.young_laplace.solve_doublet`).  x runs along the axis
-    from the centre of sphere 1, y is the distance from the axis; ``n`` points from the
-    contact line on sphere 1 to that on sphere 2.  Raises ValueError if the rebuilt
-    profile does not end on sphere 2 (to 1e-6).
-
-    >>> from capbridge.solvers.young_laplace import solve_doublet
-    >>> r = solve_doublet(0.1, 0.05, 20.0)
-    >>> x, y = bridge_meridian(0.1, r["pressure"], r["beta1"], r["beta2"], 20.0)
-    >>> bool(abs(np.hypot(x[-1] - 2.1, y[-1]) - 1) < 1e-6)
-    True
-    """
-    from capbridge.solvers import young_laplace as yl
-
-    theta2 = theta1 if theta2 is None else theta2
-    h = 0.5 * float(pressure)
-    b1, b2, t1, t2 = (np.radians(float(v)) for v in (beta1, beta2, theta1, theta2))
-    prof = yl.bridge_profile(h, b1, b2, t1, t2, 1.0)
-    L = float(prof["length"])
-    # arc length grid, denser near the ends
-    u = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n)))
-    s = float(prof["s1"]) + L * u
-    y, _, cosp = yl._point(prof["n"], prof["B"], np.float64(h), s)
-    x = np.cos(b1) + cumulative_trapezoid(cosp, s, initial=0.0)
-    end = np.hypot(x[-1] - centre_distance(gap), y[-1]) - 1.0
-    if not (np.isfinite(end) and abs(end) < 1e-6):
-        raise ValueError(f"meridian does not close on sphere 2 (miss {end:.2e})")
-    return x, y
 
 
 # --------------------------------------------------------------------------------------

@@ -197,7 +197,12 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
     bridges; None when not measured), lower_meniscus_z (coalesced: lowest point of the
     free surface between grains 2 and 3, < 0 for a trimer), section (segments of the
     free surface in the plane of the centres, (m, 2, 3)), warnings.  The last three
-    need ``inspect_mesh`` (default: on), which reloads the final mesh once.
+    need ``inspect_mesh`` (default: on), which reloads the final mesh once.  ``shape``:
+    with ``keep_shape=True`` (a :class:`~capbridge.solvers.evolver.Settings` field,
+    passed through ``settings`` like the others) the minimised liquid surface of the
+    finest level, a :class:`~capbridge.solvers.shapes.LiquidShape` in the frame of
+    ``geom`` and the forces (lengths / r), for
+    :func:`~capbridge.solvers.shapes.write_shape`; None otherwise, or without a result.
 
     A run that fails on the mesh (degenerate or folded facets, or a driver error flagged
     by :func:`~capbridge.solvers.evolver.minimise`) is retried from a finer starting
@@ -262,7 +267,8 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
            "pressure": (float(res.pressure[0]) if topology == "coalesced"
                         and res.pressure is not None else np.nan),
            "cap_gaps": None if gaps is None else {f"grain {g + 1}": v for g, v in gaps.items()},
-           "lower_meniscus_z": zlow, "section": section, "attempts": attempts}
+           "lower_meniscus_z": zlow, "section": section, "attempts": attempts,
+           "shape": res.shape}
     if res.status in HAS_RESULT and res.forces is not None:
         F = np.asarray(res.forces, float)
         f, resid = pair_forces(geom.centres, F)

@@ -105,6 +105,7 @@ __all__ = [
     "SolverSettings",
     "bridge_profile",
     "bridge_shape",
+    "bridge_meridian",
     "solve_doublet",
     "rupture_distance",
     "solve_doublet_suction",
@@ -268,6 +269,85 @@ def bridge_profile(h, beta1, beta2, theta1, theta2, ratio, nodes=DEFAULT_NODES):
     out = _shape(h, b1, np.where(ds > 0, ds, np.nan), t1, t2, R, nodes)
     out["force_balance"] = (y2 * np.cos(psi2) - h * y2 * y2) - force
     return out
+
+
+def bridge_meridian(gap, pressure, beta1, beta2, theta1, theta2=None, n=801, ratio=1.0,
+                    necks=False):
+    """Meridian (x, y) of the exact bridge between the spheres of radii 1 at (0, 0) and
+    ``ratio`` at (1 + ratio + gap, 0).
+
+    Parameters
+    ----------
+    gap : float
+        Gap d* between the sphere surfaces [-].
+    pressure : float
+        Laplace pressure P* [-].
+    beta1, beta2 : float
+        Half filling angles on spheres 1 and 2 [deg].
+    theta1 : float
+        Contact angle on sphere 1 [deg].
+    theta2 : float, optional
+        Contact angle on sphere 2 [deg]; defaults to ``theta1``.
+    n : int
+        Points from the contact line on sphere 1 to that on sphere 2, denser near the
+        ends (uniform in the angle of a cosine).
+    ratio : float
+        Radius ratio R2/R1 [-].
+    necks : bool
+        Also include the roulette's necks (its points of smallest radius) that lie on
+        the meridian, so that ``y.min()`` is the bridge's ``neck_radius`` to round-off.
+
+    Returns
+    -------
+    x, y : numpy.ndarray
+        Axial position from the centre of sphere 1 and distance from the axis, in units
+        of R1.  The inputs are those of :func:`solve_doublet`'s output (``pressure``,
+        ``beta1``, ``beta2``).  x is the integral of cos(psi) along the arc, by
+        Gauss-Legendre on every interval (in the variable of :func:`bridge_shape`,
+        smooth through slender necks), so it is exact to ~1e-13.
+
+    Raises
+    ------
+    ValueError
+        The rebuilt profile does not end on sphere 2 (to 1e-6): inputs that are not an
+        equilibrium.
+
+    Examples
+    --------
+    >>> r = solve_doublet(0.1, 0.05, 20.0)
+    >>> x, y = bridge_meridian(0.1, r["pressure"], r["beta1"], r["beta2"], 20.0)
+    >>> bool(abs(np.hypot(x[-1] - 2.1, y[-1]) - 1) < 1e-12)
+    True
+    """
+    theta2 = theta1 if theta2 is None else theta2
+    h = np.float64(0.5 * float(pressure))
+    b1, b2, t1, t2 = (np.radians(float(v)) for v in (beta1, beta2, theta1, theta2))
+    prof = bridge_profile(h, b1, b2, t1, t2, float(ratio))
+    nn, B = prof["n"], prof["B"]
+    s1, L = float(prof["s1"]), float(prof["length"])
+    s = s1 + L * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n)))
+    if necks:
+        # the necks sit at s = k pi/|h| (s = 0 for h = 0): see _shape
+        period = np.pi / abs(h) if h != 0.0 else np.inf
+        k = np.arange(np.ceil(s1 / period), np.floor((s1 + L) / period) + 1) \
+            if np.isfinite(period) else np.array([0.0])
+        inner = k * period if np.isfinite(period) else k
+        s = np.union1d(s, inner[(inner > s1) & (inner < s1 + L)])
+    # x by Gauss-Legendre in u = asinh(s / c) on every interval (as in _shape)
+    c = max(abs(float(nn)), 1e-12 * (1.0 + L))
+    u = np.arcsinh(s / c)
+    t, w = _gauss_legendre(12)
+    half = 0.5 * np.diff(u)
+    uu = (u[:-1] + half)[:, None] + half[:, None] * t
+    ss = c * np.sinh(uu)
+    _, _, cosp = _point(nn, B, h, ss)
+    dx = np.sum(w * cosp * c * np.cosh(uu) * half[:, None], axis=1)
+    x = np.cos(b1) + np.concatenate([[0.0], np.cumsum(dx)])
+    y = _point(nn, B, h, s)[0]
+    end = np.hypot(x[-1] - centre_distance(gap, ratio), y[-1]) - float(ratio)
+    if not (np.isfinite(end) and abs(end) < 1e-6):
+        raise ValueError(f"meridian does not close on sphere 2 (miss {end:.2e})")
+    return x, y
 
 
 # --------------------------------------------------------------------------------------

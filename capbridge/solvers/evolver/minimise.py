@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from capbridge.solvers.shapes import LiquidShape
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -72,6 +73,9 @@ class Settings:
     total_timeout: float = 3600.0
     workers: int | None = None    # Evolver processes at once (default min(2, cores))
     keep_files: bool = False      # keep the temporary directory (path in result)
+    keep_shape: bool = False      # keep the final surface as ``BridgeResult.shape``
+                                  # (a LiquidShape, for capbridge.solvers.shapes.
+                                  # write_shape); off by default: sweeps hold many results
     flag_above_tolerance: bool = True    # status ABOVE_TOLERANCE (not CONVERGED) for a
                                   # result whose own error estimate exceeds etol/ftol at
                                   # the last level; off until every caller accepts it
@@ -140,6 +144,8 @@ class BridgeResult:
     warnings: list = field(default_factory=list)
     workdir: str = ""
     problem: object = None
+    shape: object = None                    # LiquidShape of the finest level, with
+                                            # Settings.keep_shape and a result (else None)
 
     @property
     def converged(self):
@@ -310,6 +316,7 @@ class _Runner:
         self.pre = script.prelude(mp.grain_contacts(), etol=settings.etol_newton)
         self.cpu = 0.0
         self.t0 = time.monotonic()
+        self.final_snap = None        # report of the finest level that passed its checks
 
     def remaining(self):
         return self.s.total_timeout - (time.monotonic() - self.t0)
@@ -478,7 +485,25 @@ def minimise(problem, settings=None):
         finally:
             res.cpu_time = R.cpu
             res.wall_time = time.monotonic() - t_start
+        if s.keep_shape and res.converged and R.final_snap is not None:
+            res.shape = _final_shape(R.final_snap, mp, res)
     return res
+
+
+def _final_shape(snap, mp, res):
+    """The surface of the finest level (the one the result's numbers come from) with its
+    grains and case, in the problem's frame and units."""
+    triangles, body, contact = snap.triangle_mesh(mp.contact_constraints)
+    pb = res.problem
+    return LiquidShape(points=snap.vertices.copy(), triangles=triangles, body=body,
+                       contact_grain=contact, centres=pb.centres.copy(),
+                       radii=pb.radii.copy(), contact_angles=pb.contact_angles_deg.copy(),
+                       volumes=tuple(float(b.volume) for b in pb.bodies),
+                       status=res.status.name.lower(),
+                       method=f"Surface Evolver, refinement level {res.refinement}",
+                       bond=float(pb.bond),
+                       gravity_dir=tuple(map(float, pb.gravity_dir)) if pb.bond else None,
+                       wetted=tuple(pb.wetted_grains()))
 
 
 def _levels(R, res):
@@ -575,6 +600,7 @@ def _levels(R, res):
             rec.forces_vw = F
         rec.diagnostics["cpu_cumulative"] = R.cpu   # Evolver CPU of all runs so far
         records.append(rec)
+        R.final_snap = snap
         src = f"L{L}.dmp"
         if L >= s.min_refine and _converged(records, s, res):
             break

@@ -37,6 +37,35 @@ class Snapshot:
         """Map vertex id -> row in ``vertices``."""
         return {int(v): i for i, v in enumerate(self.vertex_ids)}
 
+    def triangle_mesh(self, contact_constraints):
+        """The free surface as a triangle mesh on the rows of ``vertices``.
+
+        Parameters
+        ----------
+        contact_constraints : dict
+            (body index, grain index) -> contact constraint number, 0-based indices
+            (:attr:`.datafile.MeshedProblem.contact_constraints`).
+
+        Returns
+        -------
+        triangles : numpy.ndarray of int, shape (nf, 3)
+            Rows of ``vertices`` of every facet, in Evolver's orientation (the normal
+            points out of the liquid).
+        body : numpy.ndarray of int, shape (nf,)
+            0-based index of the liquid body each facet bounds.
+        contact_grain : numpy.ndarray of int, shape (nv,)
+            0-based grain whose contact line a vertex lies on; -1 for the free surface.
+        """
+        idx = self.index_of()
+        rows = np.vectorize(idx.__getitem__, otypes=[np.int64])
+        triangles = rows(self.facets).reshape(-1, 3)
+        contact_grain = np.full(len(self.vertex_ids), -1, dtype=np.int64)
+        for (_, g), cn in contact_constraints.items():
+            e = self.contact_edges.get(cn)
+            if e is not None and e.size:
+                contact_grain[rows(e.ravel())] = g
+        return triangles, self.facet_body.astype(np.int64) - 1, contact_grain
+
 
 class ReportError(ValueError):
     pass
