@@ -468,3 +468,48 @@ def test_covers_matches_predict_vectors_with_radii(sur):
         except CapbridgeInputError as exc:
             answered = "v = V*/V*_coal" in str(exc)     # a volume matter, not the gaps
         assert answered == bool(cov[k]), (k, g[k], R[k])
+
+
+def test_a_table_computed_over_part_of_its_cube(shipped_triplet_table):
+    """A table made on a grid with ``max_bridge_gap`` (TripletGrid.packings(): the two
+    smaller gaps up to it, the open side over the whole axis) stores the rest of its
+    cube as not computed: the surrogate says it does not cover those geometries and
+    refuses them in one line, and answers inside exactly as the full table does where
+    no cell touches the missing nodes (linear: local).  Here: the shipped table cut at
+    max_bridge_gap = 0.1."""
+    import json
+
+    from capbridge.tables.netcdf_io import read_table
+    from capbridge.status import Status as St
+
+    ds = read_table(shipped_triplet_table)
+    cut = ds.copy(deep=True)
+    g = cut.d12.values
+    mid = np.median(np.stack(np.meshgrid(g, g, g, indexing="ij")), axis=0)
+    out = mid > 0.1 + 1e-12
+    for name, var in cut.data_vars.items():
+        if var.dims[:3] == ("d12", "d13", "d23"):
+            if name == "status":
+                var.values[out] = St.NOT_COMPUTED
+            elif np.issubdtype(var.dtype, np.floating):
+                var.values[out] = np.nan
+    cut = cut.drop_vars([v for v in cut.data_vars
+                         if v.startswith(("holdout", "gravity_holdout"))])
+    for k in ("table_sha256", "data_sha256"):        # an edited copy carries no checksum
+        cut.attrs.pop(k, None)
+    grid = json.loads(cut.attrs["grid"])
+    grid["max_bridge_gap"] = 0.1
+    cut.attrs["grid"] = json.dumps(grid)
+    full = TripletSurrogate(method="linear").fit(ds)
+    sur = TripletSurrogate(method="linear").fit(cut)
+    assert sur.max_bridge_gap_ == 0.1 and full.max_bridge_gap_ is None
+    np.testing.assert_array_equal(sur.covers([0.05, 0.0, 0.15], [0.15, 0.05, 0.0],
+                                             [0.15, 0.2, 0.05], 30.0), [False, True, True])
+    with pytest.raises(CapbridgeInputError, match="max_bridge_gap 0.1"):
+        sur.predict(0.05, 0.15, 0.15, 0.3, 30.0)
+    # inside, cells [0, 0.1]^2 x [0.1, 0.2] and relabellings: all their nodes computed
+    d = (np.array([0.0, 0.05, 0.15]), np.array([0.05, 0.15, 0.02]), np.array([0.15, 0.02, 0.08]))
+    a, b = full.predict(*d, 0.3, 30.0), sur.predict(*d, 0.3, 30.0)
+    for k in ("f12", "f13", "f23", "pressure", "volume_coalescence", "status"):
+        np.testing.assert_array_equal(b[k], a[k])
+    assert np.isin(b["status"], HAS_RESULT).all()

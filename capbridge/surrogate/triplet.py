@@ -72,6 +72,8 @@ V_coal = V0 + (theta/90 deg) dV); Derjaguin (1934) for the effective radius.
 """
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import xarray as xr
 
@@ -255,6 +257,11 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         self.gaps_ = gaps
         self.theta_ = np.asarray(ds["theta"].values, float)
         self.v_ = np.asarray(ds["v"].values, float)
+        # a table computed only where the two smaller gaps (the bridges on the shared
+        # grain) are small (TripletGrid.max_bridge_gap): the rest of the cube is
+        # outside the table as much as a gap beyond the axis is
+        grid = json.loads(ds.attrs.get("grid", "{}"))
+        self.max_bridge_gap_ = grid.get("max_bridge_gap")
         self.refine_ = _refine3(self.refine)
         rg, rt, rv = self.refine_ if self.method != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
@@ -506,7 +513,17 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
             d = np.asarray(d, float)
             ok &= (d >= lo) & (d <= hi)
         t = np.asarray(theta, float)
+        ok &= self._in_domain(*(np.asarray(d, float) for d in (d12, d13, d23)))
         return ok & (t >= self.theta_[0] - _TOL) & (t <= self.theta_[-1] * (1 + _TOL))
+
+    def _in_domain(self, d12, d13, d23):
+        """True where the middle gap is at most the table's ``max_bridge_gap`` (always,
+        for a table computed over its whole cube)."""
+        if self.max_bridge_gap_ is None:
+            return np.ones(np.broadcast_shapes(np.shape(d12), np.shape(d13), np.shape(d23)),
+                           bool)
+        mid = np.median(np.stack(np.broadcast_arrays(d12, d13, d23)), axis=0)
+        return mid <= self.max_bridge_gap_ * (1 + _TOL) + _TOL
 
     def coalescence_volume(self, d12, d13, d23, theta):
         """V*_coal and its linear law (V0, dV) at a geometry and angle: dict of arrays.
@@ -544,6 +561,14 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         names = ("d12", "d13", "d23")
         for n, x in zip(names, g):
             self._range(f"gap {n}", x, self.gaps_, " (gap / r)")
+        out = ~self._in_domain(*g)
+        if out.any():
+            k = int(np.flatnonzero(out)[0])
+            raise CapbridgeInputError(
+                f"gaps d12={g[0][k]!r}, d13={g[1][k]!r}, d23={g[2][k]!r}: two of them are "
+                f"above the triplet table's max_bridge_gap {self.max_bridge_gap_:g} (the "
+                "table covers triplets whose two bridges on the shared grain have gaps up "
+                "to it); solve it with Surface Evolver (capbridge solve triplet)")
         self._range("theta", np.broadcast_to(theta, shape).ravel(), self.theta_, " deg")
         return g, np.broadcast_to(volume, shape).ravel(), \
             np.broadcast_to(theta, shape).ravel(), shape
