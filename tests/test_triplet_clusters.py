@@ -392,3 +392,24 @@ def test_a_bridge_formed_inside_a_live_cluster_joins_it(sur, doublets):
     ref = sur.predict_vectors(pos / R, cl.volume[0] / R**3, 0.0)
     F = ref["forces"] * force_scale(R, GAMMA)
     np.testing.assert_allclose(out["forces"], F, rtol=1e-12, atol=1e-15 * np.abs(F).max())
+
+
+def test_equal_pressure_shares_where_the_doublet_pressure_turns_down():
+    """At theta = 60 deg the doublet's P*(V*) at contact rises to a maximum (V* ~ 0.4)
+    and falls after it; the equal-pressure split used to be refused whenever the
+    pressures scanned up to the total volume were not rising everywhere (all the
+    splits at 60 deg in the packing benchmark fell back to the merge-time volumes).  On
+    the rising branch the shares exist: exact doublets at them have equal pressures to
+    the doublet table's pressure error (1e-3), and they add up to the total."""
+    from capbridge.solvers.young_laplace import solve_doublet
+    from capbridge.surrogate.doublet import DoubletSurrogate
+    from capbridge.dem.triplet_clusters import table_equal_pressure
+
+    d = DoubletSurrogate().fit(default_table_path())
+    vol = np.asarray(d.volume_, float)
+    for gaps, V in (((0.0, 0.02), 0.45), ((0.0, 0.03), 0.42), ((0.0, 0.0), 0.6)):
+        v = table_equal_pressure(d, list(gaps), V, 60.0, (vol.min(), vol.max()))
+        assert v is not None, (gaps, V)
+        assert v.sum() == pytest.approx(V, rel=1e-12)
+        P = solve_doublet(np.array(gaps), v, 60.0)["pressure"]
+        assert P[0] == pytest.approx(P[1], rel=1e-3)

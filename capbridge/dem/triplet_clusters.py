@@ -117,9 +117,10 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
     doublet table (equal spheres, lengths / r).
 
     Each bridge b at gap d_b has the tabulated P*_b(V*) at fixed gap; on its
-    exchange-stable branch (volumes above the pressure minimum, where dP/dV > 0: the
-    branch of :func:`~capbridge.tables.coalescence.separated_state` for every
-    bridge not past its pressure fold) P*_b is inverted on a log grid, the common P* with
+    exchange-stable branch (volumes between the pressure minimum and, at large contact
+    angles, the pressure maximum, where dP/dV > 0: the branch of
+    :func:`~capbridge.tables.coalescence.separated_state` for every bridge not past its
+    pressure fold) P*_b is inverted on a log grid, the common P* with
     sum_b V_b(P*) = V* is found by bisection (the sum increases with P*), then Newton
     steps on (V_b, P*) with the surrogate's slopes make the tabulated pressures equal to
     ~1e-10.  The equal-pressure state is thus exact for the table; its error against
@@ -155,7 +156,13 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
             return None
         k = np.flatnonzero(ok)
         k = k[np.argmin(Pb[k]):]                   # right of the pressure minimum
-        if k.size < 2 or np.any(np.diff(Pb[k]) <= 0) or np.any(np.diff(k) != 1):
+        # ... and left of the pressure maximum: at large contact angles P*(V*) turns
+        # down again (theta = 60 deg at contact: from V* ~ 0.4), where a bridge
+        # exchanging liquid at equal pressure is unstable; that part is not the branch
+        rise = np.diff(Pb[k]) > 0
+        if not rise.all():
+            k = k[:int(np.argmin(rise)) + 1]
+        if k.size < 2 or np.any(np.diff(k) != 1):
             return None
         branches.append((Pb[k], grid[k]))
     p_lo = max(b[0][0] for b in branches)
