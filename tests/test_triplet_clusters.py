@@ -413,3 +413,31 @@ def test_equal_pressure_shares_where_the_doublet_pressure_turns_down():
         assert v.sum() == pytest.approx(V, rel=1e-12)
         P = solve_doublet(np.array(gaps), v, 60.0)["pressure"]
         assert P[0] == pytest.approx(P[1], rel=1e-3)
+
+
+@pytest.mark.parametrize("theta", [30.0, 60.0])
+def test_equal_pressure_shares_of_unequal_grains(theta):
+    """Bridges between grains of unequal radii (a shared grain of radius r0 = 1 and
+    grains of 1.3 and 0.8) share the liquid at one SI pressure: each bridge in its own
+    units (its smaller radius, the ratio of its grains), pressures compared as P*_b/s_b.
+    Exact doublets at the shares have equal pressures to the doublet table's error
+    (1e-3); the shares add up to the total (the split of +-25 % packings fell back to
+    the merge-time volumes at every split before)."""
+    from capbridge.solvers.young_laplace import solve_doublet
+    from capbridge.surrogate.doublet import DoubletSurrogate
+    from capbridge.dem.triplet_clusters import table_equal_pressure
+
+    d = DoubletSurrogate().fit(default_table_path())
+    vol = np.asarray(d.volume_, float)
+    R = np.array([[1.0, 1.3], [0.8, 1.0]])
+    s, ratio = R.min(axis=1), R.max(axis=1) / R.min(axis=1)
+    for gaps, V in (((0.0, 0.05), 0.3), ((0.02, 0.1), 0.2)):
+        v = table_equal_pressure(d, list(gaps), V, theta, (vol.min(), vol.max()), radii=R)
+        assert v is not None and v.sum() == pytest.approx(V, rel=1e-12)
+        P = [solve_doublet(np.array([g / sb]), np.array([vb / sb**3]), theta,
+                           ratio=rb)["pressure"][0] / sb
+             for g, vb, sb, rb in zip(gaps, v, s, ratio)]
+        assert P[0] == pytest.approx(P[1], rel=1e-3)
+        # not the equal-radii answer: the radii matter
+        v_eq = table_equal_pressure(d, list(gaps), V, theta, (vol.min(), vol.max()))
+        assert np.abs(v - v_eq).max() > 1e-2 * V

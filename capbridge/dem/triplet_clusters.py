@@ -30,14 +30,15 @@ bridges when
   "separated"; the paper's criterion on drying / separation) -> ``split_energy``.
 
 The liquid of a split cluster is shared among its bridges at **equal Laplace pressure**
-(equal radii and one angle): by default on the doublet table's P*(d*, V*)
-(:func:`table_equal_pressure`, milliseconds; volumes within ~1e-4 of the exact state,
-measured) or, with ``split_solver="exact"``, from exact doublets
+(one angle): by default on the doublet table's P*(d*, V*) (:func:`table_equal_pressure`,
+milliseconds; volumes within ~1e-4 of the exact state, measured; unequal radii with
+each bridge in its own units at one SI pressure) or, with ``split_solver="exact"``, from
+exact doublets (equal radii only)
 (:func:`~capbridge.tables.coalescence.separated_state`, seconds per split:
 measured 813 s for 331 splits in 400 steps of a 1,000-grain packing, in a cost test with
 the development table relabelled to cover contact: too slow as a default).
-If the solve has no answer (unequal radii; the configuration does not exist at this
-volume; the table method also when a bridge would be past its pressure fold, which
+If the solve has no answer (unequal radii with the exact solver; the configuration
+does not exist at this volume; the table method also when a bridge would be past its pressure fold, which
 only the exact solver follows; a share outside the doublet table's V* range) the
 bridges keep the volumes they had when they merged (shares proportional to them:
 exactly those volumes), counted as ``split_share_fallback``.  The shares add up to
@@ -112,9 +113,10 @@ _SEPARATED = 1                # LOWER_ENERGY_STATES code of "separated"
 SPLIT_SOLVERS = ("table", "exact", "merge_volumes")
 
 
-def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, newton=6):
+def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, newton=6,
+                         radii=None):
     """Volumes of separate bridges sharing ``volume`` at one Laplace pressure, from the
-    doublet table (equal spheres, lengths / r).
+    doublet table (lengths in units of a reference radius r0).
 
     Each bridge b at gap d_b has the tabulated P*_b(V*) at fixed gap; on its
     exchange-stable branch (volumes between the pressure minimum and, at large contact
@@ -125,32 +127,43 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
     steps on (V_b, P*) with the surrogate's slopes make the tabulated pressures equal to
     ~1e-10.  The equal-pressure state is thus exact for the table; its error against
     exact doublets is the table's P* interpolation error (compared in
-    ``tests/test_triplet_clusters.py``).
+    ``tests/test_triplet_clusters.py``).  Unequal radii: each bridge is looked up in its
+    own units (its smaller radius s_b r0, ratio of its grains), and the pressures are
+    compared in the reference unit, P*_b / s_b (the same SI pressure), volumes summed
+    as V*_b s_b^3.
 
     Parameters
     ----------
     doublet : DoubletSurrogate (fitted).
-    gaps : (nb,) gaps d* of the bridges (>= 0).
-    volume : float, total V*.
+    gaps : (nb,) gaps d/r0 of the bridges (>= 0).
+    volume : float, total V/r0^3.
     theta : float, contact angle [deg].
-    vstar_range : (low, high) V* range of the table.
+    vstar_range : (low, high) V* range of the table (each bridge in its own units).
+    radii : (nb, 2), optional
+        The two grains' radii of each bridge / r0 (default: all 1).
 
     Returns
     -------
     ndarray (nb,) or None
-        V*_b (their sum is ``volume`` to round-off), or None when no such state exists
-        on the table (a bridge cannot exist at any share, the common pressure is outside
-        the branches, the branch is not monotonic).
+        V_b/r0^3 (their sum is ``volume`` to round-off), or None when no such state
+        exists on the table (a bridge cannot exist at any share, the common pressure is
+        outside the branches, a share outside the table's V* range).
     """
     gaps = np.maximum(np.asarray(gaps, float), 0.0)
+    R = np.ones((gaps.size, 2)) if radii is None else np.asarray(radii, float)
+    s = R.min(axis=1)                          # each bridge's own length unit / r0
+    ratio = R.max(axis=1) / s
+    gb = gaps / s
     lo, hi = vstar_range
-    if volume <= lo * gaps.size:
+    if volume <= float(np.sum(lo * s**3)):
         return None
-    grid = np.geomspace(lo, min(hi, volume), n_grid)
-    r = doublet.predict(gaps[:, None], grid[None, :], theta, variables=("pressure",))
+    # each bridge's volumes up to the table's top or the whole liquid, in its own units
+    grid = np.stack([np.geomspace(lo, t, n_grid) for t in np.minimum(hi, volume / s**3)])
+    r = doublet.predict(gb[:, None], grid, theta, ratio=ratio[:, None],
+                        variables=("pressure",))
     P = np.where(r["status"] == Status.CONVERGED, r["pressure"], np.nan)
     branches = []
-    for Pb in P:
+    for Pb, Vb, sb in zip(P, grid, s):
         ok = np.isfinite(Pb)
         if ok.sum() < 2:
             return None
@@ -164,42 +177,42 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
             k = k[:int(np.argmin(rise)) + 1]
         if k.size < 2 or np.any(np.diff(k) != 1):
             return None
-        branches.append((Pb[k], grid[k]))
+        branches.append((Pb[k] / sb, Vb[k] * sb**3))      # reference units
     p_lo = max(b[0][0] for b in branches)
     p_hi = min(b[0][-1] for b in branches)
     if not p_lo < p_hi:
         return None
 
-    def total(p):
-        return sum(np.interp(p, Pb, np.log(Vb)) for Pb, Vb in branches), \
-            np.array([np.exp(np.interp(p, Pb, np.log(Vb))) for Pb, Vb in branches])
+    def shares(p):
+        return np.array([np.exp(np.interp(p, Pb, np.log(Vb))) for Pb, Vb in branches])
 
-    if sum(np.exp(np.interp(p_lo, Pb, np.log(Vb))) for Pb, Vb in branches) > volume or \
-            sum(np.exp(np.interp(p_hi, Pb, np.log(Vb))) for Pb, Vb in branches) < volume:
+    if shares(p_lo).sum() > volume or shares(p_hi).sum() < volume:
         return None
     a, b = p_lo, p_hi
     for _ in range(60):                             # bisection on the common pressure
         m = 0.5 * (a + b)
-        if total(m)[1].sum() < volume:
+        if shares(m).sum() < volume:
             a = m
         else:
             b = m
-    V = total(0.5 * (a + b))[1]
+    V = shares(0.5 * (a + b))
     V *= volume / V.sum()
     for _ in range(newton):
         # P_b(V_b) = p for all b, sum V_b = volume: dV_b = (p - P_b)/s_b + dp/s_b
-        h = 1e-6 * V
-        q = doublet.predict(np.concatenate([gaps, gaps]), np.concatenate([V, V + h]), theta,
+        v_own = V / s**3
+        h = 1e-6 * v_own
+        q = doublet.predict(np.concatenate([gb, gb]), np.concatenate([v_own, v_own + h]),
+                            theta, ratio=np.concatenate([ratio, ratio]),
                             variables=("pressure",))
         if np.any(q["status"] != Status.CONVERGED):
             return None
-        Pv, Ph = q["pressure"][:gaps.size], q["pressure"][gaps.size:]
-        slope = (Ph - Pv) / h
+        Pv, Ph = q["pressure"][:gaps.size] / s, q["pressure"][gaps.size:] / s
+        slope = (Ph - Pv) / (h * s**3)
         if np.any(slope <= 0):
             return None
         p = np.sum(Pv / slope) / np.sum(1 / slope) + (volume - V.sum()) / np.sum(1 / slope)
         V = V + (p - Pv) / slope
-        if np.any(V < lo) or np.any(V > hi):
+        if np.any(V / s**3 < lo) or np.any(V / s**3 > hi):
             return None
     return V
 
@@ -796,20 +809,22 @@ class LiquidClusters:
             return None
         R = model.radii[grains]
         theta = float(model.theta[grains[0]])
-        if np.ptp(R) > 1e-12 * R.max() or not 0.0 <= theta < 90.0:
-            return None                  # equal-pressure shares are for equal spheres
-        r = float(R[0])
+        equal = np.ptp(R) <= 1e-12 * R.max()
+        if not 0.0 <= theta < 90.0 or (not equal and self.split_solver == "exact"):
+            return None                  # the exact split is for equal spheres
+        r = float(R.min())               # the reference length
         P = ((0, 1), (0, 2), (1, 2))
         where = {int(g): k for k, g in enumerate(grains)}
         local = tuple(tuple(sorted((where[int(a)], where[int(b)]))) for a, b in members)
-        d = [np.linalg.norm(model.pair_vectors(pos, grains[[a]], grains[[b]])[0]) - 2 * r
-             for a, b in P]
+        d = [np.linalg.norm(model.pair_vectors(pos, grains[[a]], grains[[b]])[0])
+             - R[a] - R[b] for a, b in P]
         g = [max(x, 0.0) / r for x in d]
         V = float(merge_vols.sum())
         lo, hi = model.table.vstar_range
         if self.split_solver == "table":
             v = table_equal_pressure(self.doublet_surrogate(), [g[P.index(b)] for b in local],
-                                     V / r**3, theta, (lo, hi))
+                                     V / r**3, theta, (lo, hi),
+                                     radii=[(R[a] / r, R[b] / r) for a, b in local])
             if v is None:
                 return None
             v = v * r**3
@@ -824,7 +839,8 @@ class LiquidClusters:
             v = np.array([s["volumes"][b] for b in local]) * r**3
         if not np.all(np.isfinite(v) & (v > 0)):
             return None
-        if np.any(v < lo * r**3) or np.any(v > hi * r**3):
+        own = np.array([min(R[a], R[b]) for a, b in local])      # each bridge's unit
+        if np.any(v < lo * own**3) or np.any(v > hi * own**3):
             return None                  # outside the doublet table: keep merge volumes
         v[-1] = V - v[:-1].sum()         # exact total
         return v
