@@ -463,6 +463,8 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                 "symmetrisation_max_change": self.asymmetry_,
                 "separated_energy": bool(self.has_separated_energy_),
                 "holdout_error": self.interpolation_error_,
+                "max_bridge_gap": self.max_bridge_gap_,
+                "unequal_radii": dict(UNEQUAL_RADII_ERROR),
                 "gravity": self.gravity_summary()}
 
     def spline_at(self, d12, d13, d23, theta, v):
