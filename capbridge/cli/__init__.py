@@ -1,19 +1,13 @@
-"""``capbridge`` command line: solve, lookup, generate, info, demo.
+"""The ``capbridge`` command line: its grammar (:func:`build_parser`) and :func:`main`.
 
-Every user error ends in one line ``capbridge: error: ...`` and exit status 2 (``--debug``
-anywhere on the line shows the traceback instead); a sweep with failed chunks exits 3
-("N chunks failed, rerun to retry"), an internal error 1.  ``--allow-unverified-table``
-anywhere on the line uses tables without a table checksum (older or edited files), with
-one warning line each, instead of refusing them.
-
-This module holds the grammar (:func:`build_parser`: the commands, their options and
-the function that runs each) and :func:`main`; each command is a thin module of its own
-(:mod:`~capbridge.cli.solve`, :mod:`~capbridge.cli.lookup`, :mod:`~capbridge.cli.generate`,
-:mod:`~capbridge.cli.info`, :mod:`~capbridge.cli.export`, :mod:`~capbridge.cli.demo`,
-:mod:`~capbridge.cli.coalescence`, :mod:`~capbridge.cli.reproduce`) that reads its
-options, calls the library and prints; the parser's pieces are in
-:mod:`~capbridge.cli.parser`.  The names below that those modules define are imported
-here too: they were defined here before, and users import them from here.
+The commands, their options and the function that runs each are declared here; each
+command is a thin module of its own that reads its options, calls the library and
+prints (:mod:`~capbridge.cli.solve`, :mod:`~capbridge.cli.lookup`,
+:mod:`~capbridge.cli.generate`, :mod:`~capbridge.cli.info`, :mod:`~capbridge.cli.export`,
+:mod:`~capbridge.cli.demo`, :mod:`~capbridge.cli.coalescence`,
+:mod:`~capbridge.cli.reproduce`); the parser's pieces are in :mod:`~capbridge.cli.parser`.
+The names those modules define that were defined here before are imported here too:
+users import them from here.  What the command line promises is :data:`DESCRIPTION`.
 """
 from __future__ import annotations
 
@@ -34,8 +28,8 @@ from capbridge.cli.lookup import (DOUBLET_VECTOR_COLUMNS, LOOKUP_INPUTS, LOOKUP_
                                   cmd_lookup_doublet, cmd_lookup_triplet)
 from capbridge.cli.messages import configure_logging, one_line
 from capbridge.cli.parser import (ALLOW_UNVERIFIED_OPTION, CommandLineParser,
-                                  add_triplet_gaps, evolver_refine_level, number,
-                                  parse_gravity)
+                                  add_triplet_gaps, evolver_refine_level,
+                                  number_in_range, parse_gravity)
 from capbridge.cli.reproduce import cmd_reproduce
 from capbridge.cli.solve import cmd_solve_doublet, cmd_solve_triplet
 from capbridge.status import HAS_RESULT
@@ -49,6 +43,16 @@ from capbridge.tables.coalescence import add_arguments as add_coalescence_argume
 from capbridge.tables.netcdf_io import allow_unverified_tables
 from capbridge.tables.sweep import SweepFailedError
 from capbridge.validation import CapbridgeInputError
+
+#: the opening of ``capbridge --help``
+DESCRIPTION = """``capbridge`` command line: solve, lookup, generate, info, demo.
+
+Every user error ends in one line ``capbridge: error: ...`` and exit status 2 (``--debug``
+anywhere on the line shows the traceback instead); a sweep with failed chunks exits 3
+("N chunks failed, rerun to retry"), an internal error 1.  ``--allow-unverified-table``
+anywhere on the line uses tables without a table checksum (older or edited files), with
+one warning line each, instead of refusing them.
+"""
 
 __all__ = ["main", "build_parser", "DEFAULT_TABLE", "DEFAULT_TRIPLET_TABLE",
            "DEFAULT_COALESCENCE_TABLE", "ALLOW_UNVERIFIED_OPTION", "parse_gravity",
@@ -67,7 +71,7 @@ def build_parser():
     that runs it.  The table defaults and the functions are read from this module when
     it is called, so that pointing one of its names elsewhere (a test, a wrapper) is
     enough."""
-    p = CommandLineParser(prog="capbridge", description=__doc__,
+    p = CommandLineParser(prog="capbridge", description=DESCRIPTION,
                           epilog="--debug (anywhere): show the traceback of an error; "
                                  "--allow-unverified-table (anywhere): use tables without "
                                  "a table checksum (older capbridge, or edited) with a "
@@ -160,17 +164,18 @@ def build_parser():
     gd.add_argument("--quick", action="store_true", help="small grid (tests)")
     gd.add_argument("--overwrite", action="store_true",
                     help="replace an existing --output of another grid")
-    gd.add_argument("--ratios", type=number(1.0, 1e3), nargs="+", default=None,
+    gd.add_argument("--ratios", type=number_in_range(1.0, 1e3), nargs="+", default=None,
                     help="radius ratios R2/R1 >= 1")
-    gd.add_argument("--jobs", type=number(1, 4096, integer=True), default=None,
+    gd.add_argument("--jobs", type=number_in_range(1, 4096, integer=True), default=None,
                     help="worker processes (default: all cores)")
     gd.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
-    gd.add_argument("--worker-timeout", type=number(0, np.inf, low_open=True), default=600.0,
+    gd.add_argument("--worker-timeout", type=number_in_range(0, np.inf, low_open=True),
+                    default=600.0,
                     help="Dask: seconds without any worker before the sweep fails (default 600)")
     gd.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
-    gd.add_argument("--holdout", type=number(10, 10**7, integer=True), default=600,
+    gd.add_argument("--holdout", type=number_in_range(10, 10**7, integer=True), default=600,
                     help="held-out exact points for the error model (>= 10)")
-    gd.add_argument("--gravity-holdout", type=number(2, 10**5, integer=True), default=40,
+    gd.add_argument("--gravity-holdout", type=number_in_range(2, 10**5, integer=True), default=40,
                     help="held-out points for the check of the gravity response (each at 5 "
                          "Bond numbers, gravity along the axis both ways; exact solver)")
     gd.add_argument("--no-progress", action="store_true")
@@ -186,13 +191,14 @@ def build_parser():
                          "held-out points, one held-out gravity case")
     gt.add_argument("--overwrite", action="store_true",
                     help="replace an existing --output of another grid")
-    gt.add_argument("--jobs", type=number(1, 4096, integer=True), default=None,
+    gt.add_argument("--jobs", type=number_in_range(1, 4096, integer=True), default=None,
                     help="worker processes (default: all cores)")
     gt.add_argument("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://host:8786")
-    gt.add_argument("--worker-timeout", type=number(0, np.inf, low_open=True), default=600.0,
+    gt.add_argument("--worker-timeout", type=number_in_range(0, np.inf, low_open=True),
+                    default=600.0,
                     help="Dask: seconds without any worker before the sweep fails (default 600)")
     gt.add_argument("--checkpoint-dir", default=None, help="resumable checkpoints here")
-    gt.add_argument("--holdout", type=number(0, 10**5, integer=True), default=None,
+    gt.add_argument("--holdout", type=number_in_range(0, 10**5, integer=True), default=None,
                     help="held-out Evolver points one level finer, for the error model "
                          f"(default {TRIPLET_HOLDOUT[False]}, with --quick "
                          f"{TRIPLET_HOLDOUT[True]})")
@@ -209,9 +215,9 @@ def build_parser():
     ex = sub.add_parser("export-yade", help="write YADE's native capillary files (M(r=...) sets, "
                         "CapillarityEngine input) from the exact suction-controlled solver")
     ex.add_argument("--directory", required=True)
-    ex.add_argument("--theta", type=number(0.0, 90.0), nargs="+", default=[0.0],
+    ex.add_argument("--theta", type=number_in_range(0.0, 90.0), nargs="+", default=[0.0],
                     help="contact angles [deg]")
-    ex.add_argument("--n-gaps", type=number(3, 10**5, integer=True), default=61)
+    ex.add_argument("--n-gaps", type=number_in_range(3, 10**5, integer=True), default=61)
     ex.set_defaults(func=cmd_export_yade)
 
     info = sub.add_parser("info", help="describe a table and its error model")
@@ -259,7 +265,7 @@ def build_parser():
     rep.add_argument("--checkpoint-dir", default=None,
                      help="resumable Evolver checkpoints (default .sweep-checkpoints/miot2021 "
                           "for the full run, none with --quick)")
-    rep.add_argument("--max-refine", type=number(0, 8, integer=True), default=None,
+    rep.add_argument("--max-refine", type=number_in_range(0, 8, integer=True), default=None,
                      help="Evolver refinement level")
     rep.add_argument("--no-progress", action="store_true")
     rep.set_defaults(func=cmd_reproduce)

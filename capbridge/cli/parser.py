@@ -39,7 +39,7 @@ class CommandLineParser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def number(low=-np.inf, high=np.inf, low_open=False, integer=False, hint=""):
+def number_in_range(low=-np.inf, high=np.inf, low_open=False, integer=False, hint=""):
     """argparse type: a finite number in [low, high] (``low_open``: (low, high]);
     ``hint`` ends the message of a value outside the range (why the range)."""
     def parse(text):
@@ -64,7 +64,7 @@ _REFINE_HINT = ("Surface Evolver results need level 2 at least: the error estima
 
 def evolver_refine_level():
     """argparse type of ``--max-refine`` for the Evolver solves (:data:`EVOLVER_REFINE`)."""
-    return number(*EVOLVER_REFINE, integer=True, hint=_REFINE_HINT)
+    return number_in_range(*EVOLVER_REFINE, integer=True, hint=_REFINE_HINT)
 
 
 def add_triplet_gaps(parser):
