@@ -1,7 +1,8 @@
-"""``capbridge solve doublet`` and ``capbridge solve triplet``: one exact solve, JSON out.
+"""``capbridge solve doublet`` and ``capbridge solve triplet``: one solve, JSON out.
 
-Exit status 0 with a result, 3 without one (not converged, or no equilibrium); the
-solvers are imported when a command runs, not when the command line starts.
+The exact Young-Laplace solver for a doublet (Surface Evolver for gravity off its axis),
+Surface Evolver for a coalesced triplet.  Exit status 0 with a result, 3 without one
+(not converged, or no equilibrium).
 """
 from __future__ import annotations
 
