@@ -16,7 +16,7 @@ from capbridge.surrogate.doublet import (DEFAULT_REFINE, DEFAULT_THETA_STEP, Dou
                                          gravity_holdout_errors)
 from capbridge.surrogate.doublet import holdout_errors as doublet_holdout_errors
 from capbridge.surrogate.triplet import TripletSurrogate
-from capbridge.surrogate.triplet import holdout_errors as triplet_holdout_errors
+from capbridge.surrogate.triplet_holdout import holdout_errors as triplet_holdout_errors
 
 #: the doublet check leaves out s < HOLDOUT_BAND (d* > 0.96 d*_rupt), where dF/dd*
 #: diverges at the fold (one check at ratio 1 keeps it, band 0)
