@@ -7,7 +7,8 @@
    then wetted by :class:`~capbridge.yade.engine.CapbridgeEngine` (scene:
    :mod:`capbridge.cli.demo_packing`, run in its own process).
 
-Each part writes a figure and a CSV into the output directory.
+Each part writes a figure and a CSV into the output directory; ``capbridge demo``
+(:func:`cmd_demo`) checks the tables and that directory first.
 """
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from capbridge.status import Status
+from capbridge.tables import COALESCENCE_TABLE
+from capbridge.validation import CapbridgeInputError
 
 DEMO_VOLUMES = (0.008, 0.05, 0.156)
 DEMO_THETAS = (0.0, 30.0, 60.0)
@@ -34,6 +37,24 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def cmd_demo(args):
+    """``capbridge demo``: the tables and the output directory checked, then
+    :func:`run_demo`."""
+    table = Path(args.table)
+    if not table.exists():
+        raise CapbridgeInputError(f"table {table} not found; make it with `capbridge generate doublet`")
+    triplet = None if args.triplet_table in ("", "none") else Path(args.triplet_table)
+    if triplet is not None and not triplet.exists():
+        raise CapbridgeInputError(f"triplet table {triplet} not found; make it with "
+                                  "`capbridge generate triplet` or give --triplet-table none")
+    coal = COALESCENCE_TABLE if COALESCENCE_TABLE.exists() else None
+    out = Path(args.output_dir)
+    if out.exists() and not out.is_dir():
+        raise CapbridgeInputError(f"--output-dir {out} is a file, not a directory")
+    return run_demo(args.table, args.output_dir, triplet_table=triplet,
+                    coalescence_table=coal, packing=not args.no_yade)
 
 
 def run_demo(table, output_dir, n_gap=40, triplet_table=None, coalescence_table=None,

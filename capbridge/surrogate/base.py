@@ -13,7 +13,9 @@ is fitted on a table of exact solutions and then looked up:
 * ``has_gravity_`` (bool): the table carries a response to gravity on the liquid.
   (``DoubletSurrogate.has_gravity()``, the old spelling, is a deprecated alias.)
 * ``summary()``: what the surrogate was fitted on and its error model, a JSON-friendly
-  dict (what ``capbridge info`` reports).
+  dict (what ``capbridge info`` prints); fitted on a table file, it holds under
+  ``table`` what the table says about itself
+  (:func:`capbridge.tables.description.describe_table`).
 * Output names: the API's dict keys (``force``, ``pressure``, ``rupture_gap``, ...)
   and the CSV columns of ``capbridge lookup`` (``F``, ``P``, ``d_rupt``, ...) are mapped
   in one place, :data:`CSV_COLUMNS`; :data:`DOUBLET_OUTPUTS`, :data:`TRIPLET_OUTPUTS`

@@ -14,7 +14,9 @@ import numpy as np
 import xarray as xr
 from scipy.interpolate import make_interp_spline
 
-from capbridge.tables import DATA_DIR
+from capbridge.tables import DOUBLET_TABLE
+from capbridge.tables.description import (describe_doublet_gravity, describe_table,
+                                          json_friendly)
 from capbridge.status import HAS_RESULT, Status
 from capbridge.surrogate.grid import (UniformAxis, bilinear, bilinear_flat, refine_axis,
                                       trilinear)
@@ -195,28 +197,32 @@ class DoubletSurrogate(SurrogateBase):
 
     def summary(self):
         """What the surrogate was fitted on and its error model (JSON-friendly dict),
-        for ``capbridge info``: the table's axes, points and converged points, the
-        fine-grid settings, the stored held-out errors (``holdout_*``) and the gravity
-        response (None without one)."""
+        for ``capbridge info``: ``table`` (what the table says about itself:
+        :func:`~capbridge.tables.description.describe_table`); from it, as before it,
+        ``command``, ``git_commit`` and ``axes``, with ``checksum`` (the table carries
+        a data checksum), ``points`` and ``converged`` points; the fine-grid settings,
+        the stored held-out errors (``holdout_*``) and the gravity response (None
+        without one: its variables, the supported and validated Bond numbers, and
+        :func:`~capbridge.tables.description.describe_doublet_gravity`)."""
         self._check_fitted()
         ds = self.table_
+        table = describe_table(ds, ("ratio", "theta", "volume", "s"))
         st = np.asarray(ds["status"].values)
-        axes = {name: {"n": int(ds[name].size), "min": float(ds[name].values.min()),
-                       "max": float(ds[name].values.max()),
-                       "long_name": str(ds[name].attrs.get("long_name", ""))}
-                for name in ("ratio", "theta", "volume", "s")}
         gravity = None
         if self.has_gravity_:
             gravity = {"variables": [n for n in GRAVITY_VARIABLES + (
                 "weight_share_transverse", "response_error", "rupture_gap_gravity")
                 if n in ds], "bond_max_supported": BOND_MAX,
                 "bond_max_validated": float(self.gravity_bond_max_)}
-        return {"command": ds.attrs.get("capbridge_command"),
-                "git_commit": ds.attrs.get("git_commit", "not recorded"),
-                "checksum": "data_sha256" in ds.attrs, "axes": axes,
+            gravity.update(describe_doublet_gravity(ds, GRAVITY_VARIABLES + (
+                "weight_share_transverse", "response_error", "gravity_status",
+                "rupture_gap_gravity")))
+        return {"table": table, "command": table["command"],
+                "git_commit": table["git_commit"], "checksum": "data_sha256" in ds.attrs,
+                "axes": table["axes"],
                 "points": int(st.size), "converged": int((st == Status.CONVERGED).sum()),
                 "refine": self.refine_, "theta_step": self.theta_step_,
-                "holdout_error": {k: _jsonable(v) for k, v in self.holdout_.items()},
+                "holdout_error": {k: json_friendly(v) for k, v in self.holdout_.items()},
                 "gravity": gravity}
 
     def _fine_grid(self, ratio_index, name):
@@ -828,20 +834,9 @@ class _GridLookup:
         return out, code
 
 
-def _jsonable(v):
-    """A table attribute as JSON-friendly Python (arrays to lists, numpy scalars to
-    Python numbers)."""
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, np.generic):
-        return v.item()
-    return v
-
-
 def default_table():
-    from pathlib import Path
-
-    return DATA_DIR / "doublet_table.nc"
+    """The shipped doublet table, ``data/doublet_table.nc`` of this checkout."""
+    return DOUBLET_TABLE
 
 
 def _open(path, allow_unverified=None):

@@ -89,7 +89,8 @@ from capbridge.surrogate.triplet_holdout import holdout_errors, holdout_points
 from capbridge.surrogate.triplet_nodes import (GRID_VARIABLES, PAIR_NAMES, PAIRS, cell_max,
                                                fill_failed, node_data, symmetrise)
 from capbridge.surrogate.triplet_unequal import combine_status, unequal_scales
-from capbridge.tables import DATA_DIR
+from capbridge.tables import TRIPLET_TABLE
+from capbridge.tables.description import describe_evolver_points, describe_table
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
 # this module's public names from before its parts had their own modules (issue 17)
@@ -126,7 +127,7 @@ _TOL = 1e-12          # relative slack at the table's edges (round-off, not rang
 
 def default_table():
     """``data/triplet_table.nc`` of this checkout."""
-    return DATA_DIR / "triplet_table.nc"
+    return TRIPLET_TABLE
 
 
 # --------------------------------------------------------------------------------------
@@ -452,10 +453,18 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
 
     def summary(self):
         """What the surrogate was fitted on and its error model (JSON-friendly dict),
-        for ``capbridge info``."""
+        for ``capbridge info``: ``table`` (what the table says about itself, its stored
+        error model included: :func:`~capbridge.tables.description.describe_table`),
+        ``evolver`` (the cost and estimated error of its points:
+        :func:`~capbridge.tables.description.describe_evolver_points`), the fit
+        (method, refinement, axes, cells of the fine grid, coalescence volumes), the
+        error measured at fit on the held-out points (``holdout_error``) and the
+        gravity response (:meth:`gravity_summary`)."""
         self._check_fitted()
         cells = np.bincount(self.cell_code_.ravel(), minlength=4)
-        return {"method": self.method, "kernel": self.kernel_, "refine": list(self.refine_),
+        return {"table": describe_table(self.table_, ("d12", "d13", "d23", "theta", "v")),
+                "evolver": describe_evolver_points(self.table_),
+                "method": self.method, "kernel": self.kernel_, "refine": list(self.refine_),
                 "gaps": self.gaps_.tolist(), "theta": self.theta_.tolist(),
                 "v": self.v_.tolist(), "coalescence_volume": self.coalescence_source_,
                 "cells": {"converged": int(cells[0]), "above_tolerance": int(cells[1]),

@@ -116,14 +116,17 @@ class TripletGravityResponse:
     def gravity_summary(self):
         """The gravity content of the fitted table (JSON-friendly dict, or None): the
         response's volume ratios, nodes with a response, the supported and validated
-        Bond ranges and the held-out errors (:func:`gravity_holdout_errors`)."""
+        Bond ranges, the held-out errors (:func:`gravity_holdout_errors`) and the
+        number of held-out cases outside the table's grid (skipped when it was made)."""
         self._check_fitted()
         if not self.has_gravity_:
             return None
         e = self.gravity_errors_
         out = {"gravity_v": self.gravity_v_.tolist(), "nodes": self.gravity_nodes_,
                "bond_max_supported": BOND_MAX,
-               "bond_max_validated": float(self.gravity_bond_max_)}
+               "bond_max_validated": float(self.gravity_bond_max_),
+               "holdout_cases_skipped": int(self.table_.attrs.get(
+                   "gravity_holdout_cases_skipped", 0))}
         if e is not None:
             out["holdout"] = {k: e[k] for k in ("threshold", "threshold_source", "bonds",
                                                 "max_error_by_bond",

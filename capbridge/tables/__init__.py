@@ -5,6 +5,11 @@ from pathlib import Path
 
 #: the shipped tables' folder (``data/`` beside the package)
 DATA_DIR = Path(__file__).resolve().parents[2] / "data"
+#: the shipped tables: doublets (exact Young-Laplace), coalesced triplets (Surface
+#: Evolver) and the coalescence volumes of three equal spheres
+DOUBLET_TABLE = DATA_DIR / "doublet_table.nc"
+TRIPLET_TABLE = DATA_DIR / "triplet_table.nc"
+COALESCENCE_TABLE = DATA_DIR / "triplet_coalescence.nc"
 
 # reading a table file runs the checks of its kind (units, bounds, sum rules, symmetry)
 from capbridge.tables import checks as _checks  # noqa: E402
