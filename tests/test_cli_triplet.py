@@ -83,3 +83,21 @@ def test_info_describes_the_triplet_table(capsys):
     assert main(["info", "--table", str(DEFAULT_TRIPLET_TABLE)]) == 0
     out = capsys.readouterr().out
     assert "Surface Evolver" in out and "held-out" in out and "CPU s" in out
+
+
+def test_info_gives_the_unequal_radii_error(capsys):
+    """``info`` states the measured error of the unequal-radii approximation (issue 18:
+    the held-out and the unequal-radii errors are in ``capbridge info``)."""
+    from capbridge.surrogate.triplet import UNEQUAL_RADII_ERROR as U
+
+    assert main(["info", "--table", str(DEFAULT_TRIPLET_TABLE)]) == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if "unequal radii" in x)
+    assert f"{U['median']:.1%}" in line and f"{U['max']:.1%}" in line
+    assert "computed domain" not in out          # the shipped table covers its cube
+
+
+def test_generate_triplet_packings_grid_refuses_quick(capsys):
+    assert main(["generate", "triplet", "--grid", "packings", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--grid packings" in err

@@ -286,3 +286,51 @@ def test_evolver_doublet_shape_through_the_result(tmp_path, evolver_counts):
     assert plain.shape is None                      # kept only when asked
     with pytest.raises(CapbridgeInputError, match="keep_shape=True"):
         write_shape(plain, tmp_path / "plain.vtp")
+
+
+def _cli(args, capsys):
+    import json
+
+    from capbridge.cli import main
+
+    code = main(args)
+    out, err = capsys.readouterr()
+    return code, (json.loads(out) if out.strip() else None), err
+
+
+def test_cli_solve_doublet_shape(tmp_path, capsys):
+    """``solve doublet --shape``: the exact profile revolved, two files, their paths in
+    the JSON; a second run refuses the existing files in one line (exit 2) and leaves
+    them as they were, ``--overwrite`` replaces them; gravity along the axis (Bo > 0)
+    is refused before any solve (the exact gravity solver keeps no profile)."""
+    path = tmp_path / "bridge.vtp"
+    args = ["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30",
+            "--shape", str(path)]
+    code, out, _ = _cli(args, capsys)
+    assert code == 0 and out["shape"] == [str(path), str(tmp_path / "bridge_grains.vtp")]
+    surf = read_vtk(path)
+    assert surf["points"].shape[0] > 100
+    before = path.read_bytes()
+    code, out, err = _cli(args, capsys)
+    assert code == 2 and out is None and "exists" in err and "--overwrite" in err
+    assert err.count("\n") == 1 and path.read_bytes() == before
+    code, out, _ = _cli(args + ["--overwrite"], capsys)
+    assert code == 0 and out["shape"][0] == str(path)
+    code, out, err = _cli(["solve", "doublet", "--d", "0.1", "--V", "0.05", "--theta", "30",
+                           "--bond", "0.5", "--gravity", "-1,0,0",
+                           "--shape", str(tmp_path / "g.vtp")], capsys)
+    assert code == 2 and "along its axis" in err and not (tmp_path / "g.vtp").exists()
+
+
+@pytest.mark.evolver
+def test_cli_solve_triplet_shape(tmp_path, capsys, evolver):
+    """``solve triplet --shape``: Surface Evolver's surface (level 2, seconds) with the
+    same point count as the mesh the result's numbers come from."""
+    path = tmp_path / "trimer.vtp"
+    code, out, _ = _cli(["solve", "triplet", "--d12", "0", "--d13", "0", "--d23", "0.1",
+                         "--V", "0.3", "--theta", "30", "--max-refine", "2",
+                         "--shape", str(path)], capsys)
+    assert code == 0 and out["shape"][0] == str(path)
+    grains = read_vtk(tmp_path / "trimer_grains.vtp")
+    np.testing.assert_allclose(grains["points"], np.asarray(out["centres"]), atol=1e-9)
+    assert read_vtk(path)["points"].shape[0] > 50

@@ -100,6 +100,13 @@ def build_parser():
     sd.add_argument("--max-refine", type=evolver_refine_level(), default=3,
                     help="Evolver refinement level in [2, 6] (only for --gravity off the "
                          "axis; below 2 there is no error estimate, so it is refused)")
+    sd.add_argument("--shape", default=None, metavar="OUT.vtp",
+                    help="also write the liquid surface (triangles, lengths / R1) to OUT.vtp "
+                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView" +
+                         " (exact profile revolved; Surface Evolver's surface with gravity"
+                         " off the axis; not with gravity along the axis)")
+    sd.add_argument("--overwrite", action="store_true",
+                    help="replace existing --shape files")
     sd.set_defaults(func=cmd_solve_doublet)
     st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
                           "liquid body on three equal spheres (JSON out)")
@@ -115,6 +122,11 @@ def build_parser():
     st.add_argument("--gravity", default=None, metavar="X,Y,Z",
                     help="direction along which gravity pulls (default 0,0,-1) in the "
                          "table frame: grains 2 and 3 on the x axis, grain 1 at z > 0")
+    st.add_argument("--shape", default=None, metavar="OUT.vtp",
+                    help="also write the liquid surface (triangles, lengths / r) to OUT.vtp "
+                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView")
+    st.add_argument("--overwrite", action="store_true",
+                    help="replace existing --shape files")
     st.set_defaults(func=cmd_solve_triplet)
 
     look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)
@@ -183,7 +195,15 @@ def build_parser():
     gd.set_defaults(func=cmd_generate_doublet)
     gt = gen.add_parser("triplet", help="Surface Evolver sweep of coalesced triplets into a "
                         "netCDF table (hours; resumable)")
-    gt.add_argument("--output", default=str(DEFAULT_TRIPLET_TABLE))
+    gt.add_argument("--output", default=None,
+                    help=f"the table (default {DEFAULT_TRIPLET_TABLE}; with --grid packings "
+                         "triplet_table_packings.nc beside it)")
+    gt.add_argument("--grid", choices=("shipped", "packings"), default="shipped",
+                    help="shipped: the grid of data/triplet_table.nc (gaps 0-0.2, v "
+                         "0.7-2); packings: the domain coalesced triplets of real packings "
+                         "reach (bridge gaps 0-0.2, the open side to 0.6, v 0.7-5; ~1,400 "
+                         "Evolver points, ~10 CPU hours with its gravity response; "
+                         "checkpoints in sweeps/triplet_packings)")
     gt.add_argument("--quick", action="store_true",
                     help="small grid (tests; ~4.5 CPU minutes, 2-4 minutes on 2 cores): "
                          "16 points at Evolver level 2 (status above_tolerance: ~3 %% "

@@ -120,7 +120,16 @@ def print_triplet_summary(s, path):
         print(f"  per point: median {ev['cpu_time_median']:.1f} CPU s; estimated force "
               f"error median {ev['force_error_rel_median']:.2%}, max "
               f"{ev['force_error_rel_max']:.2%}")
+    if s.get("max_bridge_gap") is not None:
+        print(f"  computed domain: the two smaller gaps up to {s['max_bridge_gap']:g} (the "
+              "rest of the cube: not computed, outside the table)")
     print_error_model(table["error_model"])
+    u = s.get("unequal_radii")
+    if u:
+        print(f"  unequal radii (approximation '{u['scheme']}', status approximate): "
+              f"pair forces against {u['n_triplets']} Surface Evolver triplets with radius "
+              f"ratios up to 2, median {u['median']:.1%}, max {u['max']:.1%} "
+              f"({u['source']})")
     g = s["gravity"]
     if g is None:
         print("  gravity: none (the lookups answer Bo = 0 only; `capbridge solve triplet "

@@ -2,7 +2,8 @@
 
 The exact Young-Laplace solver for a doublet (Surface Evolver for gravity off its axis),
 Surface Evolver for a coalesced triplet.  Exit status 0 with a result, 3 without one
-(not converged, or no equilibrium).
+(not converged, or no equilibrium).  ``--shape out.vtp`` also writes the liquid surface
+and the grains (:mod:`capbridge.solvers.shapes`) for ParaView.
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ def cmd_solve_doublet(args):
                                     "the exact solver's range")
     if (args.V is None) == (args.P is None):
         raise CapbridgeInputError("give exactly one of --V (volume control) or --P (suction control)")
+    _check_shape_target(args)
     if args.bond is not None:
         return _solve_doublet_gravity(args, bond, direction)
     if args.V is not None:
@@ -41,8 +43,32 @@ def cmd_solve_doublet(args):
            "beta1": r["beta1"], "beta2": r["beta2"], "neck_radius": r["neck_radius"], "area": r["area"],
            "energy": r["energy"], "status": status_name(r["status"]),
            "units": "dimensionless by R1 and gamma: F*=F/(2 pi gamma R1), P*=dp R1/gamma; angles in degrees"}
+    if args.shape and int(np.asarray(r["status"])) == Status.CONVERGED:
+        from capbridge.solvers.shapes import doublet_shape
+        out["shape"] = _write_shape(args, doublet_shape(args.d, float(volume), args.theta,
+                                                        args.ratio, args.theta2, result=r))
     print_json(out)
     return 0 if out["status"] in ("converged", "ruptured") else 3
+
+
+def _check_shape_target(args):
+    """``--shape``: the two files it will write are checked before any solve (one line
+    if they exist without ``--overwrite`` or cannot be written)."""
+    if args.shape:
+        from capbridge.solvers.shapes import shape_paths
+        shape_paths(args.shape, overwrite=args.overwrite, flag="--overwrite")
+
+
+def _write_shape(args, shape):
+    """Write ``--shape`` (the surface and its grains file); their paths, or None with
+    a warning when the solve kept no surface."""
+    from capbridge.solvers.shapes import write_shape
+
+    if shape is None:
+        print("capbridge: warning: no surface written (--shape): the solve has no result",
+              file=sys.stderr)
+        return None
+    return [str(p) for p in write_shape(shape, args.shape, overwrite=args.overwrite)]
 
 
 #: the JSON names of :func:`~capbridge.solvers.doublet_in_gravity.solve_doublet_in_gravity`'s
@@ -65,9 +91,12 @@ def _solve_doublet_gravity(args, bond, direction):
     if not along_axis(direction, bond):
         print("capbridge: gravity not along the axis: Surface Evolver (minutes, not "
               "milliseconds)", file=sys.stderr)
+    off_axis = not along_axis(direction, bond)
     r = solve_doublet_in_gravity(args.d, args.V, args.theta, bond, direction, args.ratio,
-                                 args.theta2, max_refine=args.max_refine)
+                                 args.theta2, max_refine=args.max_refine,
+                                 keep_shape=bool(args.shape) and (off_axis or bond > 0))
     st = r["status"]
+    shape = r.pop("shape", None)
     F1, F2 = r.pop("forces")
     out = {"d": args.d, "V": args.V, "theta": args.theta,
            "theta2": args.theta if args.theta2 is None else args.theta2,
@@ -79,6 +108,11 @@ def _solve_doublet_gravity(args, bond, direction):
     out["status"] = status_name(st)
     out["units"] = ("dimensionless by R1 and gamma: F* = F/(2 pi gamma R1) (force vectors "
                     "on each grain; F1 + F2 = weight * gravity), P* = dp R1/gamma")
+    if args.shape:
+        if not off_axis and st == Status.CONVERGED:        # Bo = 0: the exact profile
+            from capbridge.solvers.shapes import doublet_shape
+            shape = doublet_shape(args.d, args.V, args.theta, args.ratio, args.theta2)
+        out["shape"] = _write_shape(args, shape)
     print_json(out)
     return 0 if st in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
 
@@ -97,8 +131,9 @@ def cmd_solve_triplet(args):
     bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
                                     "the solvers' range")
     kw = {} if args.bond is None else {"bond": bond, "gravity_dir": tuple(direction)}
+    _check_shape_target(args)
     r = evolver_triplet(V, geom, theta, "coalesced", max_refine=args.max_refine,
-                        inspect_mesh=False, **kw)
+                        inspect_mesh=False, keep_shape=bool(args.shape), **kw)
     out = {"d12": geom.d12, "d13": geom.d13, "d23": geom.d23, "V": V, "theta": theta,
            "bond": bond, "gravity": None if direction is None else direction.tolist(),
            "status": r["status"], "reason": r["reason"],
@@ -113,5 +148,7 @@ def cmd_solve_triplet(args):
            "n_facets": r["n_facets"], "cpu_time": r["cpu_time"], "warnings": r["warnings"],
            "units": "dimensionless by r and gamma: F* = F/(2 pi gamma r) (attraction > 0 "
                     "for pair forces), P* = dp r/gamma, E* = E/(gamma r^2)"}
+    if args.shape:
+        out["shape"] = _write_shape(args, r if r.get("shape") is not None else None)
     print_json(out)
     return 0 if r["status_code"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3

@@ -18,7 +18,7 @@ from capbridge.physics.gravity import gravity_vector, liquid_weight
 from capbridge.solvers import evolver
 from capbridge.solvers.young_laplace_gravity import solve_doublet_gravity, validated_inputs
 from capbridge.status import Status
-from capbridge.validation import check_range
+from capbridge.validation import CapbridgeInputError, check_range
 
 #: how close |g_hat.x| must come to 1 for gravity to count as along the axis
 #: (the round-off of a direction a user gave as a unit vector)
@@ -41,7 +41,7 @@ def check_inputs(gap, volume, theta, bond, ratio=1.0, theta2=None):
 
 
 def solve_doublet_in_gravity(gap, volume, theta, bond, direction=(0.0, 0.0, -1.0),
-                             ratio=1.0, theta2=None, max_refine=3):
+                             ratio=1.0, theta2=None, max_refine=3, keep_shape=False):
     """Force vectors of a bridge of given volume between two spheres, with gravity.
 
     Parameters
@@ -64,6 +64,11 @@ def solve_doublet_in_gravity(gap, volume, theta, bond, direction=(0.0, 0.0, -1.0
         Contact angle on grain 2 [deg]; default ``theta``.
     max_refine : int
         Finest Surface Evolver refinement level (off the axis only).
+    keep_shape : bool
+        Off the axis: also return the minimised surface, ``shape`` (a
+        :class:`~capbridge.solvers.shapes.LiquidShape` source for
+        :func:`~capbridge.solvers.shapes.write_shape`; None without a result).  Along
+        the axis with Bo > 0 the exact solver keeps no profile: refused.
 
     Returns
     -------
@@ -84,6 +89,11 @@ def solve_doublet_in_gravity(gap, volume, theta, bond, direction=(0.0, 0.0, -1.0
     check_inputs(gap, volume, theta, bond, ratio, theta2)
     g = gravity_vector(1.0, direction)
     weight = float(liquid_weight(volume) * bond)
+    if keep_shape and along_axis(g, bond) and bond > 0:
+        raise CapbridgeInputError(
+            "the shape of a bridge with gravity along its axis is not kept by the exact "
+            "solver; without gravity (Bo = 0) the exact profile is written, off the axis "
+            "Surface Evolver's surface")
     if along_axis(g, bond):
         axis = -1.0 if g[0] <= 0 else 1.0         # either side at Bo = 0
         r = solve_doublet_gravity(gap, volume, theta, bond, ratio, theta2, gravity_axis=axis)
@@ -103,8 +113,12 @@ def solve_doublet_in_gravity(gap, volume, theta, bond, direction=(0.0, 0.0, -1.0
     theta2 = theta if theta2 is None else theta2
     centres = [[0.0, 0.0, 0.0], [1.0 + ratio + gap, 0.0, 0.0]]
     res = evolver.minimise_bridge(centres, [1.0, ratio], [theta, theta2], volume, "doublet",
-                                  bond=bond, gravity_dir=tuple(g), max_refine=max_refine)
-    return {"method": f"Surface Evolver (level {res.refinement})",
-            "forces": res.forces if res.converged else np.full((2, 3), np.nan),
-            "force_error": res.force_error, "weight": weight, "cpu_time": res.cpu_time,
-            "status": res.status, "reason": res.reason}
+                                  bond=bond, gravity_dir=tuple(g), max_refine=max_refine,
+                                  keep_shape=keep_shape)
+    out = {"method": f"Surface Evolver (level {res.refinement})",
+           "forces": res.forces if res.converged else np.full((2, 3), np.nan),
+           "force_error": res.force_error, "weight": weight, "cpu_time": res.cpu_time,
+           "status": res.status, "reason": res.reason}
+    if keep_shape:
+        out["shape"] = res if res.shape is not None else None
+    return out
