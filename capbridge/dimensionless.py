@@ -187,6 +187,12 @@ def triplet_centres(d12, d13, d23):
     return np.array([[0.0, 0.0, 0.0], [a, 0.0, 0.0], [x3, y3, 0.0]])
 
 
+#: the grain pairs of a triplet (0-based grains) and the names of their pair forces, in
+#: the one order every triplet table, surrogate and DEM lookup uses
+TRIPLET_PAIRS = ((0, 1), (0, 2), (1, 2))
+TRIPLET_PAIR_NAMES = ("f12", "f13", "f23")
+
+
 def canonical_triplet(d12, d13, d23):
     """Relabel three equal grains so that their gaps are sorted, d12 <= d13 <= d23.
 

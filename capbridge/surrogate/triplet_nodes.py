@@ -20,14 +20,13 @@ import json
 
 import numpy as np
 
+from capbridge.dimensionless import TRIPLET_PAIR_NAMES, TRIPLET_PAIRS
 from capbridge.status import Status
 
 __all__ = ["PAIR_NAMES", "PAIRS", "GRID_VARIABLES", "node_data", "cell_max", "fill_failed",
            "symmetrise"]
 
-PAIR_NAMES = ("f12", "f13", "f23")
-#: pairs (0-based grains) in the order of PAIR_NAMES
-PAIRS = ((0, 1), (0, 2), (1, 2))
+PAIRS, PAIR_NAMES = TRIPLET_PAIRS, TRIPLET_PAIR_NAMES
 #: values interpolated on the 5-D grid, in this order
 GRID_VARIABLES = ("f12", "f13", "f23", "pressure", "energy")
 

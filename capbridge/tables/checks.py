@@ -44,6 +44,8 @@ import json
 import numpy as np
 import xarray as xr
 
+from capbridge.dimensionless import TRIPLET_PAIR_NAMES, TRIPLET_PAIRS
+
 __all__ = ["table_kind", "check_table", "check_doublet", "check_triplet",
            "check_coalescence", "ANGLE_UNITS"]
 
@@ -294,8 +296,7 @@ def _doublet_nodes(ds):
 
 
 # ------------------------------------------------------------------------------ triplet
-PAIRS = ((0, 1), (0, 2), (1, 2))
-PAIR_NAMES = ("f12", "f13", "f23")
+PAIRS, PAIR_NAMES = TRIPLET_PAIRS, TRIPLET_PAIR_NAMES
 _TDIMS = ("d12", "d13", "d23", "theta", "v")
 
 

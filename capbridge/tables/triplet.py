@@ -46,7 +46,7 @@ import sys
 import numpy as np
 import xarray as xr
 
-from capbridge.dimensionless import canonical_triplet
+from capbridge.dimensionless import TRIPLET_PAIR_NAMES, TRIPLET_PAIRS, canonical_triplet
 from capbridge.tables.netcdf_io import write_table
 from capbridge.tables.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.tables.triplet_gravity import (GravityPlan, gravity_chunk,
@@ -60,8 +60,7 @@ __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_ta
 
 log = logging.getLogger(__name__)
 
-PAIRS = ((0, 1), (0, 2), (1, 2))
-PAIR_NAMES = ("f12", "f13", "f23")
+PAIRS, PAIR_NAMES = TRIPLET_PAIRS, TRIPLET_PAIR_NAMES
 COMPONENTS = ("x", "y", "z")
 
 #: failure kinds of a point (stored as flags in ``failure``); the order is the code
