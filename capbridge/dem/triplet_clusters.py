@@ -282,7 +282,8 @@ def _new_stats():
     return {"cluster_steps": 0, "steps": 0, "lives": [], "merge_jumps": [],
             "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
             "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0,
-            **{"refused_" + k: 0 for k in REFUSAL_REASONS}}
+            **{"refused_" + k: 0 for k in REFUSAL_REASONS},
+            **{"split_" + k: 0 for k in REFUSAL_REASONS}}
 
 
 #: why a coalesced triplet met at a check keeps doublet forces (:meth:`LiquidClusters.
@@ -296,10 +297,15 @@ REFUSAL_REASONS = {
 
 
 def _refusal_reasons(res, ok):
-    """Counts of the refused lookups ``~ok`` of :meth:`LiquidClusters.lookup`, by reason."""
-    st, asked = res["status"][~ok], res["asked"][~ok]
+    """Counts of the refused lookups ``~ok`` of :meth:`LiquidClusters.lookup`, by reason
+    (:data:`REFUSAL_REASONS`).  Gaps and angle inside the table, a lookup that answered
+    (v known) out of range or extrapolated: its v is outside the table ("volume"); a
+    lookup without an answer (a refused input) or a cell without a result:
+    "no_result"."""
+    st, asked, v = res["status"][~ok], res["asked"][~ok], res["v"][~ok]
     has = np.isin(st, HAS_RESULT)
-    out_v = asked & np.isin(st, (Status.OUT_OF_RANGE, Status.EXTRAPOLATED))
+    out_v = asked & ~has & np.isfinite(v) & np.isin(st, (Status.OUT_OF_RANGE,
+                                                         Status.EXTRAPOLATED))
     return {"gaps_or_angle": int((~asked).sum()), "volume": int(out_v.sum()),
             "no_result": int((asked & ~has & ~out_v).sum()),
             "separated_lower": int((asked & has).sum())}
@@ -460,7 +466,7 @@ class LiquidClusters:
         C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
         theta = model.theta[grains[:, 0]]
         out = {"f": np.full((k, 3), np.nan), "status": np.full(k, Status.OUT_OF_RANGE, np.int8),
-               "lower": np.full(k, 3, np.int8), "u": u, "gaps": gaps}
+               "lower": np.full(k, 3, np.int8), "u": u, "gaps": gaps, "v": np.full(k, np.nan)}
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
@@ -483,7 +489,7 @@ class LiquidClusters:
                     for c in ask:
                         one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1],
                                           gravity)
-                        for key in ("f", "status", "lower", "gravity"):
+                        for key in ("f", "status", "lower", "gravity", "v"):
                             if key in out:
                                 out[key][c] = one[key][0]
             else:
@@ -491,6 +497,7 @@ class LiquidClusters:
                 out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
                     fs[:, None]
                 out["status"][ask] = res.get("status_without_gravity", res["status"])
+                out["v"][ask] = res["v"]
                 out["lower"][ask] = res["lower_energy_state"]
                 if grav is not None:
                     part = res["gravity_first_order"] + res["gravity_second_order"]
@@ -622,6 +629,8 @@ class LiquidClusters:
             self.events["split_geometry"] += int(geometry.sum())
             self.events["split_energy"] += int(energy.sum())
             which = np.flatnonzero(geometry | energy)
+            for reason, n in _refusal_reasons(res, ~(geometry | energy)).items():
+                self.stats["split_" + reason] += n
             gone = {"grains": self.grains[which], "members": self.members[which],
                     "forces": self.last_forces[which]}
             new = np.zeros(self.n, bool)
@@ -896,7 +905,8 @@ class LiquidClusters:
                 **{k: int(st[k]) for k in ("triplets_seen", "triplets_live",
                                            "triplets_refused", "triplets_mixed",
                                            "larger_seen")},
-                "refused_by_reason": {k: int(st["refused_" + k]) for k in REFUSAL_REASONS}}
+                "refused_by_reason": {k: int(st["refused_" + k]) for k in REFUSAL_REASONS},
+                "splits_by_reason": {k: int(st["split_" + k]) for k in REFUSAL_REASONS}}
 
     def remap(self, new_index):
         """Grains were erased (``BridgeModel.drop_grains`` returned ``new_index``):
