@@ -34,6 +34,9 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(HERE))
+
+from results_file import write_section  # noqa: E402
 
 from capbridge.status import HAS_RESULT, Status  # noqa: E402
 from capbridge.surrogate.doublet import DoubletSurrogate  # noqa: E402
@@ -147,13 +150,7 @@ def main(argv=None):
     text = section(measure(a.table), a.table)
     print(text)
     if a.write:
-        path = HERE / "RESULTS.md"
-        old = path.read_text(encoding="utf-8")
-        if SECTION in old:
-            head, rest = old.split(SECTION, 1)
-            nxt = rest.find("\n### ")
-            old = head + (rest[nxt + 1:] if nxt >= 0 else "")
-        path.write_text(old.rstrip("\n") + "\n\n" + text, encoding="utf-8")
+        write_section(SECTION, text)
     return 0
 
 

@@ -38,6 +38,8 @@ import numpy as np  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+from results_file import write_section  # noqa: E402
 CACHE = HERE / "triplet_unequal_evolver.json"
 VCOAL_CACHE = HERE / "triplet_vcoal_exact.json"
 
@@ -423,21 +425,8 @@ def bench(args):
     text = "\n".join(lines) + "\n"
     print(text)
     if args.write:
-        _write_section(HERE / "RESULTS.md", text)
+        write_section("### Triplet surrogate", text)
     return 0
-
-
-def _write_section(path, text):
-    """Replace this benchmark's section of RESULTS.md (or append it)."""
-    old = path.read_text()
-    head = "### Triplet surrogate"
-    start = old.find(head)
-    if start < 0:
-        new = old.rstrip("\n") + "\n\n" + text
-    else:
-        end = old.find("\n### ", start + len(head))
-        new = old[:start] + text + ("" if end < 0 else old[end:])
-    path.write_text(new)
 
 
 def main(argv=None):

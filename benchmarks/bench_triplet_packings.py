@@ -35,6 +35,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_yade as by  # noqa: E402
 import bench_yade_triplet as bt  # noqa: E402
+from results_file import write_section  # noqa: E402
 
 FUZZ = {"equal": 0.0, "poly25": 0.25}
 OUT = by.ROOT / "out" / "bench_triplet_packings"
@@ -138,14 +139,7 @@ def main(argv=None):
     text = "\n".join(lines) + "\n"
     print(text)
     if a.write:
-        path = HERE / "RESULTS.md"
-        old = path.read_text(encoding="utf-8")
-        head = lines[0]
-        if head in old:                      # replace this label's section only
-            before, rest = old.split(head, 1)
-            nxt = rest.find("\n### ")
-            old = before + (rest[nxt + 1:] if nxt >= 0 else "")
-        path.write_text(old.rstrip("\n") + "\n\n" + text, encoding="utf-8")
+        write_section(lines[0], text)            # this label's section only
     return 0
 
 

@@ -38,6 +38,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_yade as by  # noqa: E402  (packing, suction files, machine, environment)
+from results_file import write_section  # noqa: E402
 
 ROOT = by.ROOT
 THETA = 30.0
@@ -163,13 +164,7 @@ def main(argv=None):
     print(text)
     print(json.dumps(res, default=str), file=sys.stderr)
     if a.write:
-        path = HERE / "RESULTS.md"
-        old = path.read_text() if path.exists() else ""
-        if SECTION in old:          # replace our own section only
-            head, rest = old.split(SECTION, 1)
-            nxt = rest.find("\n### ")
-            old = head + (rest[nxt + 1:] if nxt >= 0 else "")
-        path.write_text(old.rstrip("\n") + "\n\n" + text)
+        write_section(SECTION, text)
     return 0
 
 

@@ -29,6 +29,7 @@ import os
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 # Scene scripts run inside YADE (as subprocesses), never imported by pytest.
@@ -154,3 +155,30 @@ def pytest_runtest_makereport(item, call):
         rep.outcome = "failed"
         rep.longrepr = (f"skipped for a missing dependency, which `make test` installs "
                         f"(CAPBRIDGE_NO_DEPENDENCY_SKIPS=1): {reason}")
+
+
+@pytest.fixture(scope="session")
+def vtk_read():
+    """VTK's own reader, as ParaView loads a file: ``vtk_read(path)`` -> (polydata, cell
+    arrays, point arrays, the points as an array).  Debian's python3-vtk9 (installed by
+    ``make``); a missing module skips (a failure under CAPBRIDGE_NO_DEPENDENCY_SKIPS)."""
+    vtk = pytest.importorskip("vtk", reason="VTK's Python module not installed "
+                                            "(Debian python3-vtk9)")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    def arrays(data):
+        return {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i))
+                for i in range(data.GetNumberOfArrays())}
+
+    def read(path):
+        path = Path(path)
+        reader = vtk.vtkXMLPolyDataReader() if path.suffix == ".vtp" else \
+            vtk.vtkPolyDataReader()
+        reader.SetFileName(str(path))
+        reader.Update()
+        out = reader.GetOutput()
+        pts = out.GetPoints()
+        xyz = vtk_to_numpy(pts.GetData()) if pts is not None else np.empty((0, 3))
+        return out, arrays(out.GetCellData()), arrays(out.GetPointData()), xyz
+
+    return read

@@ -24,24 +24,6 @@ from capbridge.vtk_io import read_vtk, write_polydata
 FORMATS = [".vtp", ".vtk"]
 
 
-def _vtk_read(path):
-    """(polydata, cell arrays, point arrays) by VTK's own reader, as ParaView loads it."""
-    vtk = pytest.importorskip("vtk", reason="VTK's Python module not installed "
-                                            "(Debian python3-vtk9)")
-    from vtk.util.numpy_support import vtk_to_numpy
-
-    reader = vtk.vtkXMLPolyDataReader() if path.suffix == ".vtp" else vtk.vtkPolyDataReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    out = reader.GetOutput()
-
-    def arrays(data):
-        return {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i))
-                for i in range(data.GetNumberOfArrays())}
-
-    return out, arrays(out.GetCellData()), arrays(out.GetPointData())
-
-
 def _vtk_triangles(poly):
     """(T, 3) point indices of VTK's polygons (all triangles)."""
     from vtk.util.numpy_support import vtk_to_numpy
@@ -81,7 +63,7 @@ def _doublet_liquid_volume(shape):
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
-def test_triangles_round_trip_exactly_and_vtk_reads_them(tmp_path, suffix):
+def test_triangles_round_trip_exactly_and_vtk_reads_them(tmp_path, suffix, vtk_read):
     rng = np.random.default_rng(1)
     pts = rng.normal(size=(6, 3))
     tri = np.array([[0, 1, 2], [1, 3, 2], [2, 3, 4], [3, 5, 4]])
@@ -95,7 +77,7 @@ def test_triangles_round_trip_exactly_and_vtk_reads_them(tmp_path, suffix):
     np.testing.assert_array_equal(r["point_data"]["z"], pts[:, 2])
     assert r["lines"].shape == (0, 2) and r["verts"].shape == (0,)
     assert r["title"] == "t, lengths / r"
-    poly, cells, points = _vtk_read(path)
+    poly, cells, points, _ = vtk_read(path)
     assert poly.GetNumberOfPolys() == 4 and poly.GetNumberOfPoints() == 6
     np.testing.assert_array_equal(_vtk_triangles(poly), tri)
     np.testing.assert_array_equal(cells["body"], [0, 0, 1, 1])
@@ -138,7 +120,7 @@ def test_revolved_doublet_holds_its_volume_and_neck(gap, volume, theta, ratio):
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
-def test_doublet_files_read_back_and_load_in_vtk(tmp_path, suffix):
+def test_doublet_files_read_back_and_load_in_vtk(tmp_path, suffix, vtk_read):
     shape = doublet_shape(0.1, 0.05, 30.0, ratio=2.0)
     surf, grains = write_shape(shape, tmp_path / f"bridge{suffix}")
     assert grains.name == f"bridge_grains{suffix}"
@@ -154,11 +136,11 @@ def test_doublet_files_read_back_and_load_in_vtk(tmp_path, suffix):
     np.testing.assert_array_equal(g["points"], [[0, 0, 0], [3.1, 0, 0]])
     np.testing.assert_array_equal(g["point_data"]["radius"], [1.0, 2.0])
     np.testing.assert_array_equal(g["point_data"]["wetted"], [1, 1])
-    poly, cells, points = _vtk_read(surf)
+    poly, cells, points, _ = vtk_read(surf)
     assert poly.GetNumberOfPolys() == len(shape.triangles)
     assert poly.GetNumberOfPoints() == len(shape.points)
     np.testing.assert_array_equal(_vtk_triangles(poly), shape.triangles)
-    poly, _, points = _vtk_read(grains)
+    poly, _, points, _ = vtk_read(grains)
     assert poly.GetNumberOfVerts() == 2
     np.testing.assert_array_equal(points["radius"], [1.0, 2.0])
 
@@ -224,7 +206,7 @@ def _euler_vertices(n_facets, contact_vertices, n_loops):
 
 
 @pytest.mark.evolver
-def test_evolver_triplet_surface_is_the_reported_mesh(tmp_path, evolver_counts):
+def test_evolver_triplet_surface_is_the_reported_mesh(tmp_path, evolver_counts, vtk_read):
     from capbridge.solvers.triplet import triplet_geometry
     from capbridge.solvers.triplet_evolver import evolver_triplet
 
@@ -257,7 +239,7 @@ def test_evolver_triplet_surface_is_the_reported_mesh(tmp_path, evolver_counts):
     for word in ("lengths / r", "d12=0.175 d13=0.175 d23=0.075", "theta=0 deg",
                  "V*=0.25", f"status {r['status']}", "Surface Evolver, refinement level 1"):
         assert word in got["title"]
-    poly, cells, points = _vtk_read(surf)
+    poly, cells, points, _ = vtk_read(surf)
     assert (poly.GetNumberOfPoints(), poly.GetNumberOfPolys()) == (nv, nf)
     np.testing.assert_array_equal(_vtk_triangles(poly), got["polys"])
     np.testing.assert_array_equal(points["contact_grain"], cg)

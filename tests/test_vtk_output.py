@@ -30,23 +30,6 @@ def _bridges(n=7, seed=0):
                 cluster=rng.integers(-1, 3, n))
 
 
-def _vtk_reader(path):
-    vtk = pytest.importorskip("vtk", reason="VTK's Python module not installed "
-                                            "(Debian python3-vtk9)")
-    from vtk.util.numpy_support import vtk_to_numpy
-
-    reader = vtk.vtkXMLPolyDataReader() if path.suffix == ".vtp" else vtk.vtkPolyDataReader()
-    reader.SetFileName(str(path))
-    reader.Update()
-    out = reader.GetOutput()
-
-    def arrays(data):
-        return {data.GetArrayName(i): vtk_to_numpy(data.GetArray(i))
-                for i in range(data.GetNumberOfArrays())}
-
-    return out, arrays(out.GetCellData()), arrays(out.GetPointData()), vtk_to_numpy
-
-
 @pytest.mark.parametrize("suffix", FORMATS)
 def test_bridges_round_trip_exactly(tmp_path, suffix):
     """Two points per bridge, one line cell per bridge, every array back bit for bit;
@@ -98,21 +81,21 @@ def test_clusters_round_trip(tmp_path, suffix):
 
 
 @pytest.mark.parametrize("suffix", FORMATS)
-def test_vtk_itself_reads_the_files(tmp_path, suffix):
+def test_vtk_itself_reads_the_files(tmp_path, suffix, vtk_read):
     """VTK's own readers (vtkXMLPolyDataReader / vtkPolyDataReader, as ParaView uses)
     load every array with the written values (skipped without VTK's Python module)."""
     b = _bridges()
     path = write_bridges(tmp_path / f"b{suffix}", **b)
-    out, cells, _, to_np = _vtk_reader(path)
+    out, cells, _, xyz = vtk_read(path)
     assert out.GetNumberOfPoints() == 14 and out.GetNumberOfLines() == 7
-    np.testing.assert_array_equal(to_np(out.GetPoints().GetData()), b["ends"].reshape(-1, 3))
+    np.testing.assert_array_equal(xyz, b["ends"].reshape(-1, 3))
     for key in ("volume", "force", "status", "cluster"):
         np.testing.assert_array_equal(cells[key], b[key], err_msg=key)
-    out, _, pts, _ = _vtk_reader(write_clusters(tmp_path / f"c{suffix}", np.eye(3),
+    out, _, pts, _ = vtk_read(write_clusters(tmp_path / f"c{suffix}", np.eye(3),
                                                 [1.0, 2.0, 3.0], [2, 2, 5]))
     assert out.GetNumberOfPoints() == 3 and out.GetNumberOfVerts() == 3
     np.testing.assert_array_equal(pts["n_grains"], [2, 2, 5])
-    out, _, _, _ = _vtk_reader(write_bridges(tmp_path / f"e{suffix}", np.empty((0, 2, 3)),
+    out, _, _, _ = vtk_read(write_bridges(tmp_path / f"e{suffix}", np.empty((0, 2, 3)),
                                              [], [], []))
     assert out.GetNumberOfPoints() == 0 and out.GetNumberOfLines() == 0
 
