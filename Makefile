@@ -40,8 +40,8 @@ test: setup
 	CAPBRIDGE_NO_DEPENDENCY_SKIPS=1 $(PY) -m pytest -n 2 -q
 
 # The quick loop while editing: the suite without YADE, Surface Evolver and the slow
-# tests (markers `yade`, `evolver`, `slow`: tests/conftest.py): 704 of the 900 tests,
-# measured 91 s on 2 cores (-n 2, cores shared, load ~7; 2026-11-27).  A test slower than
+# tests (markers `yade`, `evolver`, `slow`: tests/conftest.py): 934 of the 1,139 tests,
+# measured 38 s on 2 cores (-n 2; 2026-11-27).  A test slower than
 # ~2.5 s gets @pytest.mark.slow to keep this under 2 minutes.
 test-fast: setup
 	CAPBRIDGE_NO_DEPENDENCY_SKIPS=1 $(PY) -m pytest -n 2 -q -m "not yade and not evolver and not slow"
