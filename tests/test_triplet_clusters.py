@@ -267,9 +267,15 @@ def test_closed_triangle_is_one_cluster_and_state_round_trip(sur, doublets):
     assert cl.volume[0] == float(m.vol.sum())
     cl2 = LiquidClusters(GAMMA, surrogate=sur)
     cl2.set_state(cl.get_state())
+    assert cl2.stats == cl.stats and cl.stats["triplets_seen"] >= 1   # counters restart too
     out2 = cl2.step(m, pos, m.update(pos), None)
     np.testing.assert_array_equal(out2["forces"], out["forces"])
     assert cl2.events == cl.events
+    # a state saved before the counters existed starts them afresh
+    old = {k: v for k, v in cl.get_state().items() if k != "stats"}
+    cl3 = LiquidClusters(GAMMA, surrogate=sur)
+    cl3.set_state(old)
+    assert cl3.stats["cluster_steps"] == 0 and cl3.n == 1
 
 
 def test_unequal_radii_are_approximate_and_counted(sur):

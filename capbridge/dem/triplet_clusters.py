@@ -279,7 +279,7 @@ def set_bridge_volumes(model, rows, volumes):
 
 def _new_stats():
     """Counters of how clusters live (:meth:`LiquidClusters.report`, ``"life"``)."""
-    return {"cluster_steps": 0, "steps": 0, "lives": [], "merge_jumps": [],
+    return {"cluster_steps": 0, "lives": [], "merge_jumps": [],
             "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
             "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0,
             **{"refused_" + k: 0 for k in REFUSAL_REASONS},
@@ -929,7 +929,9 @@ class LiquidClusters:
                 "approx": self.approx.copy(), "events": dict(self.events),
                 "funicular": dict(self.funicular),
                 "funicular_keys": [list(k) for k in sorted(self._funicular_keys)],
-                "refused_keys": [list(k) for k in sorted(self._refused_keys)]}
+                "refused_keys": [list(k) for k in sorted(self._refused_keys)],
+                "stats": {k: (list(v) if isinstance(v, list) else v)
+                          for k, v in self.stats.items()}}
 
     def set_state(self, st):
         """Continue from :meth:`get_state` (the table is loaded again only when needed)."""
@@ -943,3 +945,7 @@ class LiquidClusters:
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
         self._refused_keys = {tuple(k) for k in st.get("refused_keys", [])}
+        # restart files written before the counters existed start them afresh
+        self.stats = _new_stats()
+        self.stats.update({k: (list(v) if isinstance(self.stats.get(k), list) else v)
+                           for k, v in st.get("stats", {}).items() if k in self.stats})
