@@ -268,7 +268,8 @@ def load_surrogate(table=None, coalescence_table=None):
     coal = coalescence_table
     if coal is None and (path.parent / "triplet_coalescence.nc").exists():
         coal = path.parent / "triplet_coalescence.nc"
-    return TripletSurrogate(out_of_range="clip").fit(path, coalescence_table=coal)
+    return TripletSurrogate(method="auto", out_of_range="clip").fit(
+        path, coalescence_table=coal)
 
 
 def set_bridge_volumes(model, rows, volumes):

@@ -49,5 +49,6 @@ def load_triplet_surrogate(path=TRIPLET_TABLE, coalescence_table=None, out_of_ra
                                   "`capbridge generate triplet`")
     if coalescence_table is None and COALESCENCE_TABLE.exists():
         coalescence_table = COALESCENCE_TABLE
-    return TripletSurrogate(out_of_range=out_of_range, clip_hint=clip_hint).fit(
+    return TripletSurrogate(method="auto", out_of_range=out_of_range,
+                            clip_hint=clip_hint).fit(
         path, coalescence_table=coalescence_table)

@@ -143,6 +143,9 @@ METHODS = {
     "cubic_tv": "linear in the gaps, cubic splines in theta and v, simplex lookup on the "
                 "fine grid",
     "linear": "multilinear on the raw table grid (32 corners per lookup)",
+    "auto": "cubic for a table computed over its whole cube, cubic_tv for one computed "
+            "only where its two smaller gaps are small (TripletGrid.max_bridge_gap: "
+            "splines across the gaps would run through the not-computed nodes)",
 }
 
 
@@ -263,8 +266,18 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         # outside the table as much as a gap beyond the axis is
         grid = json.loads(ds.attrs.get("grid", "{}"))
         self.max_bridge_gap_ = grid.get("max_bridge_gap")
+        self.method_ = self.method
+        if self.max_bridge_gap_ is not None:
+            if self.method == "cubic":
+                raise CapbridgeInputError(
+                    f"method='cubic' on a table computed only where its two smaller gaps "
+                    f"are <= {self.max_bridge_gap_:g}: splines across the gaps would run "
+                    "through its not-computed nodes (measured up to 3 % off inside); use "
+                    "method='cubic_tv' (linear in the gaps) or 'auto'")
+        if self.method == "auto":
+            self.method_ = "cubic" if self.max_bridge_gap_ is None else "cubic_tv"
         self.refine_ = _refine3(self.refine)
-        rg, rt, rv = self.refine_ if self.method != "linear" else (1, 1, 1)
+        rg, rt, rv = self.refine_ if self.method_ != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
                       _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
         coarse = [gaps, gaps, gaps, self.theta_, self.v_]
@@ -312,8 +325,8 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         filled = np.stack([fill_failed(vals[..., k], m, (4, 3)) for k, m in
                            enumerate(masks)], -1)
         self._coarse = (coarse, filled)
-        self.kernel_ = "simplex" if self.method != "linear" else "multilinear"
-        self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method), self.kernel_)
+        self.kernel_ = "simplex" if self.method_ != "linear" else "multilinear"
+        self.grid_ = _Grid(_refine(filled, coarse, self.axes_, self.method_), self.kernel_)
         self._coalescence(ds, coarse, coalescence_table)
         self.holdout_ = holdout_points(ds)
         self.interpolation_error_ = None
@@ -385,14 +398,14 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         ok = np.isfinite(Vc)
         Vc_f = fill_failed(Vc, ok, (3,))
         fine_axes, c4 = self.axes_[:4], coarse[:4]
-        Vfine = _refine(Vc_f, c4, fine_axes, self.method)
+        Vfine = _refine(Vc_f, c4, fine_axes, self.method_)
         theta = self.theta_
         if coalescence_table is None:
             # the paper's line per geometry, least squares over the table's theta nodes
             A = np.stack([np.ones_like(theta), theta / 90.0], 1)
             coef = np.linalg.lstsq(A, Vc_f.reshape(-1, theta.size).T, rcond=None)[0]
             lin = coef.T.reshape(Vc.shape[:3] + (2,))
-            lin_fine = _refine(lin, coarse[:3], self.axes_[:3], self.method)
+            lin_fine = _refine(lin, coarse[:3], self.axes_[:3], self.method_)
             self.coalescence_source_ = "triplet table (volume_coalescence)"
         else:
             Vfine, lin_fine = self._dense_coalescence(coalescence_table, Vc_f, c4)
@@ -445,7 +458,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         resid = Vc_nodes - W_at(V, c4[0], c4[3])
         self.coalescence_residual_ = float(np.max(np.abs(resid) / Vc_nodes))
         Vfine = W_at(V, self.axes_[0].nodes, self.axes_[3].nodes) + \
-            _refine(resid, c4, self.axes_[:4], self.method)
+            _refine(resid, c4, self.axes_[:4], self.method_)
         lin_fine = W_at(np.stack([dc["V0_pair"].values, dc["dV_pair"].values], -1),
                         self.axes_[0].nodes)
         self.coalescence_source_ = f"{src} (V_coal_pair, V0_pair, dV_pair; {method})"
@@ -464,7 +477,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         cells = np.bincount(self.cell_code_.ravel(), minlength=4)
         return {"table": describe_table(self.table_, ("d12", "d13", "d23", "theta", "v")),
                 "evolver": describe_evolver_points(self.table_),
-                "method": self.method, "kernel": self.kernel_, "refine": list(self.refine_),
+                "method": self.method_, "kernel": self.kernel_, "refine": list(self.refine_),
                 "gaps": self.gaps_.tolist(), "theta": self.theta_.tolist(),
                 "v": self.v_.tolist(), "coalescence_volume": self.coalescence_source_,
                 "cells": {"converged": int(cells[0]), "above_tolerance": int(cells[1]),
@@ -489,7 +502,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         for n in range(pts[0].size):
             y = vals
             for a, (c, x) in enumerate(zip(coarse, pts)):
-                y = refine_axis(y, 0, c, np.array([x.flat[n]]), _degree(self.method, a))[0]
+                y = refine_axis(y, 0, c, np.array([x.flat[n]]), _degree(self.method_, a))[0]
             out[n] = y[:len(GRID_VARIABLES)]
         return out
 
