@@ -525,3 +525,19 @@ def test_a_table_computed_over_part_of_its_cube(shipped_triplet_table):
     for k in ("f12", "f13", "f23", "status"):
         np.testing.assert_array_equal(b[k], a[k])
     assert TripletSurrogate(method="auto").fit(ds).method_ == "cubic"
+
+
+def test_the_default_coalescence_table_only_where_it_covers(tmp_path, shipped_triplet_table):
+    """The loaders fit a triplet table with the shipped coalescence table only if that
+    covers its gaps and angles (the packings grid's open side reaches 0.6, the shipped
+    coalescence table's gaps 0.3): else the table's own V*_coal nodes."""
+    from capbridge.surrogate.load import default_coalescence_table
+    from capbridge.tables import COALESCENCE_TABLE
+
+    assert default_coalescence_table(shipped_triplet_table) == COALESCENCE_TABLE
+    wide = read_table(shipped_triplet_table)
+    wide = wide.assign_coords(d12=wide.d12.values * 3)        # gaps to 0.6
+    path = tmp_path / "wide.nc"
+    wide.to_netcdf(path)
+    assert default_coalescence_table(path) is None
+    assert default_coalescence_table(shipped_triplet_table, tmp_path / "none.nc") is None

@@ -256,9 +256,10 @@ def load_surrogate(table=None, coalescence_table=None):
     ``data/triplet_table.nc``) fitted with ``out_of_range="clip"`` (a volume ratio
     outside the table is a status, not an exception) and with the dense coalescence
     volumes ``coalescence_table`` (default ``triplet_coalescence.nc`` beside the table,
-    if it exists)."""
+    if it exists and covers the table's gaps and angles), with ``method="auto"``."""
     from pathlib import Path
 
+    from capbridge.surrogate.load import default_coalescence_table
     from capbridge.surrogate.triplet import TripletSurrogate, default_table
 
     path = Path(table) if table is not None else default_table()
@@ -266,8 +267,8 @@ def load_surrogate(table=None, coalescence_table=None):
         raise CapbridgeInputError(f"triplet table {path} not found: give "
                                   "triplet_table=... or triplet_forces=False")
     coal = coalescence_table
-    if coal is None and (path.parent / "triplet_coalescence.nc").exists():
-        coal = path.parent / "triplet_coalescence.nc"
+    if coal is None:
+        coal = default_coalescence_table(path, path.parent / "triplet_coalescence.nc")
     return TripletSurrogate(method="auto", out_of_range="clip").fit(
         path, coalescence_table=coal)
 

@@ -47,8 +47,26 @@ def load_triplet_surrogate(path=TRIPLET_TABLE, coalescence_table=None, out_of_ra
     if not path.exists():
         raise CapbridgeInputError(f"triplet table {path} not found; make it with "
                                   "`capbridge generate triplet`")
-    if coalescence_table is None and COALESCENCE_TABLE.exists():
-        coalescence_table = COALESCENCE_TABLE
+    if coalescence_table is None:
+        coalescence_table = default_coalescence_table(path)
     return TripletSurrogate(method="auto", out_of_range=out_of_range,
                             clip_hint=clip_hint).fit(
         path, coalescence_table=coalescence_table)
+
+
+def default_coalescence_table(triplet_table, candidate=COALESCENCE_TABLE):
+    """The coalescence table a triplet table is fitted with when none is given:
+    ``candidate`` (the shipped one) if it exists and its gap and angle axes cover the
+    triplet table's, else None (the surrogate then interpolates the triplet table's own
+    V*_coal nodes; e.g. the packings grid's open side reaches 0.6, the shipped
+    coalescence table's gaps 0.3)."""
+    import xarray as xr
+
+    candidate = Path(candidate)
+    if not candidate.exists():
+        return None
+    with xr.open_dataset(triplet_table) as t, xr.open_dataset(candidate) as c:
+        covers = all(float(c[a].min()) <= float(t[b].min()) + 1e-12
+                     and float(c[a].max()) >= float(t[b].max()) - 1e-12
+                     for a, b in (("d12", "d12"), ("theta", "theta")))
+    return candidate if covers else None
