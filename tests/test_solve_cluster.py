@@ -208,3 +208,28 @@ def test_cli_shape_target_checked_before_the_solve(tmp_path, capsys):
                  "--shape", str(tmp_path / "s.vtp")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "--overwrite" in err and "\n" not in err
+
+
+def test_cli_without_a_result_exits_3_with_nulls(tmp_path, capsys, monkeypatch):
+    """A solve without a result: status and reason, no numbers, exit 3 (the solver is
+    replaced by one that fails, as Evolver does on a body with no equilibrium)."""
+    import capbridge.solvers.cluster as cluster
+    from capbridge.status import Status
+
+    def failed(centres, radii, *a, **kw):
+        C, R, r = check_cluster(centres, radii)
+        return {"status": Status.NOT_CONVERGED, "reason": "neck pinched", "r": r,
+                "refinement": -1, "n_facets": 0, "cpu_time": 1.0, "warnings": [],
+                "shape": None, "pairs": None,
+                **dict.fromkeys(("forces", "force_error", "force_error_rel", "force_sum",
+                                 "pressure", "energy", "energy_error"))}
+
+    monkeypatch.setattr(cluster, "solve_cluster", failed)
+    grains = _grains_csv(tmp_path / "g.csv", TETRA)
+    code = main(["solve", "cluster", "--grains", grains, "--V", "0.6", "--theta", "30",
+                 "--shape", str(tmp_path / "s.vtp")])
+    cap = capsys.readouterr()
+    out = json.loads(cap.out)
+    assert code == 3 and out["status"] == "not_converged" and out["reason"] == "neck pinched"
+    assert out["forces"] is None and out["pair_forces"] is None and out["shape"] is None
+    assert not out["pair_forces_determined"] and "no surface written" in cap.err

@@ -25,7 +25,7 @@ from capbridge.physics.gravity import gravity_vector
 from capbridge.solvers.triplet import pair_direction_matrix, pair_forces
 from capbridge.solvers.triplet_evolver import minimise_with_ring_retries
 from capbridge.solvers.young_laplace_gravity import BOND_MAX
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import HAS_RESULT
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_int,
                                   check_range)
 
