@@ -31,7 +31,7 @@ from capbridge.cli.parser import (ALLOW_UNVERIFIED_OPTION, CommandLineParser,
                                   add_triplet_gaps, evolver_refine_level,
                                   number_in_range, parse_gravity)
 from capbridge.cli.reproduce import cmd_reproduce
-from capbridge.cli.solve import cmd_solve_doublet, cmd_solve_triplet
+from capbridge.cli.solve import cmd_solve_cluster, cmd_solve_doublet, cmd_solve_triplet
 from capbridge.status import HAS_RESULT
 from capbridge.studies import STUDIES
 from capbridge.surrogate.doublet_points import lookup_points
@@ -60,8 +60,8 @@ __all__ = ["main", "build_parser", "DEFAULT_TABLE", "DEFAULT_TRIPLET_TABLE",
            "V_MAX_DEFAULT", "LOOKUP_INPUTS", "LOOKUP_OPTIONAL", "LOOKUP_OUTPUTS",
            "LOOKUP_RESERVED", "DOUBLET_VECTOR_COLUMNS", "TRIPLET_INPUTS", "TRIPLET_OUTPUTS",
            "TRIPLET_RESERVED", "TRIPLET_VECTOR_COLUMNS", "cmd_solve_doublet",
-           "cmd_solve_triplet", "cmd_lookup_doublet", "cmd_lookup_triplet",
-           "cmd_generate_doublet", "cmd_generate_triplet", "cmd_generate_coalescence",
+           "cmd_solve_triplet", "cmd_solve_cluster", "cmd_lookup_doublet",
+           "cmd_lookup_triplet", "cmd_generate_doublet", "cmd_generate_triplet", "cmd_generate_coalescence",
            "cmd_info_table", "cmd_export_yade", "cmd_demo", "cmd_coalescence",
            "cmd_reproduce"]
 
@@ -128,6 +128,28 @@ def build_parser():
     st.add_argument("--overwrite", action="store_true",
                     help="replace existing --shape files")
     st.set_defaults(func=cmd_solve_triplet)
+    sc = solve.add_parser("cluster", help="one Surface Evolver minimisation of one liquid "
+                          "body wetting N grains read from a CSV file (JSON out)")
+    sc.add_argument("--grains", required=True, metavar="GRAINS.csv",
+                    help="CSV, one row per grain, columns x, y, z, radius in units of the "
+                         "smallest radius (at least 2 grains, not overlapping)")
+    sc.add_argument("--V", type=float, required=True,
+                    help="liquid volume V* = V/r^3, r the smallest radius")
+    sc.add_argument("--theta", type=float, required=True,
+                    help="contact angle [deg], in [0, 90)")
+    sc.add_argument("--max-refine", type=evolver_refine_level(), default=3,
+                    help="finest Evolver refinement level in [2, 6] (default 3)")
+    sc.add_argument("--bond", type=float, default=None, metavar="BO",
+                    help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 5]")
+    sc.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                    help="direction along which gravity pulls (default 0,0,-1) in the "
+                         "file's frame")
+    sc.add_argument("--shape", default=None, metavar="OUT.vtp",
+                    help="also write the liquid surface (triangles, lengths / r) to OUT.vtp "
+                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView")
+    sc.add_argument("--overwrite", action="store_true",
+                    help="replace existing --shape files")
+    sc.set_defaults(func=cmd_solve_cluster)
 
     look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)
     ld = look.add_parser("doublet", help="interpolate forces for the rows of a CSV")

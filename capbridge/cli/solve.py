@@ -1,7 +1,8 @@
-"""``capbridge solve doublet`` and ``capbridge solve triplet``: one solve, JSON out.
+"""``capbridge solve doublet``, ``solve triplet`` and ``solve cluster``: one solve, JSON out.
 
 The exact Young-Laplace solver for a doublet (Surface Evolver for gravity off its axis),
-Surface Evolver for a coalesced triplet.  Exit status 0 with a result, 3 without one
+Surface Evolver for a coalesced triplet and for one liquid body on the N grains of a CSV
+file (:func:`capbridge.solvers.cluster.solve_cluster`).  Exit status 0 with a result, 3 without one
 (not converged, or no equilibrium).  ``--shape out.vtp`` also writes the liquid surface
 and the grains (:mod:`capbridge.solvers.shapes`) for ParaView.
 """
@@ -152,3 +153,64 @@ def cmd_solve_triplet(args):
         out["shape"] = _write_shape(args, r if r.get("shape") is not None else None)
     print_json(out)
     return 0 if r["status_code"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
+
+
+#: the columns of ``solve cluster --grains``
+CLUSTER_COLUMNS = ("x", "y", "z", "radius")
+
+
+def cmd_solve_cluster(args):
+    """One Surface Evolver minimisation of one liquid body wetting the grains of a CSV
+    file (columns x, y, z, radius in units of the smallest radius)."""
+    from capbridge.solvers.cluster import solve_cluster
+    from capbridge.solvers.young_laplace_gravity import BOND_MAX as SOLVER_BOND_MAX
+    from capbridge.tabular_io import read_points_csv
+
+    _, cols = read_points_csv(args.grains, CLUSTER_COLUMNS)
+    n = len(cols["x"])
+    if n < 2:
+        raise CapbridgeInputError(f"{args.grains}: {n} grain; a cluster needs at least 2 "
+                                  "rows (one per grain)")
+    centres = np.column_stack([cols[c] for c in CLUSTER_COLUMNS[:3]])
+    V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True,
+                          hint="total liquid volume V* = V/r^3, r the smallest radius"))
+    theta = float(check_range("--theta", args.theta, 0.0, 90.0, high_open=True,
+                              units=" deg"))
+    bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
+                                    "the solvers' range")
+    _check_shape_target(args)
+    try:
+        r = solve_cluster(centres, cols["radius"], V, theta, bond=bond, gravity=direction,
+                          max_refine=args.max_refine, keep_shape=bool(args.shape))
+    except CapbridgeInputError as exc:                   # name the file (grains = rows)
+        raise CapbridgeInputError(f"{args.grains}: {exc}") from None
+    pairs = r["pairs"] or {}
+    pf, pe = pairs.get("pair_forces"), pairs.get("pair_force_error")
+    out = {"grains": str(args.grains), "n_grains": n, "V": V, "theta": theta,
+           "bond": bond, "gravity": None if direction is None else direction.tolist(),
+           "r_min": r["r"], "status": status_name(r["status"]), "reason": r["reason"],
+           "frame": "the file's: grain k is row k (from 1), lengths / the smallest radius"
+                    " (gravity: the direction it pulls)",
+           "forces": r["forces"], "force_error": r["force_error"],
+           "force_error_rel": r["force_error_rel"], "force_sum": r["force_sum"],
+           "pressure": r["pressure"], "energy": r["energy"],
+           "energy_error": r["energy_error"],
+           "pair_forces_determined": bool(pairs.get("determined", False)),
+           "pair_forces": None if pf is None else _by_pair_name(pf),
+           "pair_force_error": None if pe is None else _by_pair_name(pe),
+           "pair_rank": pairs.get("rank"), "pair_residual": pairs.get("residual"),
+           "pair_note": pairs.get("note", ""), "refinement": r["refinement"],
+           "n_facets": r["n_facets"], "cpu_time": r["cpu_time"], "warnings": r["warnings"],
+           "units": "dimensionless by r (the smallest radius) and gamma: F* = F/(2 pi gamma "
+                    "r) (attraction > 0 for pair forces), P* = dp r/gamma, E* = E/(gamma "
+                    "r^2)"}
+    if args.shape:
+        out["shape"] = _write_shape(args, r["shape"])
+    print_json(out)
+    return 0 if r["status"] in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
+
+
+def _by_pair_name(values):
+    """{(i, j): x} (0-based grains) as {"i+1-j+1": x}: grains numbered as the rows of
+    the file."""
+    return {f"{i + 1}-{j + 1}": v for (i, j), v in values.items()}

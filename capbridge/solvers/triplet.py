@@ -67,6 +67,7 @@ __all__ = [
     "find_coalescence",
     "CoalescenceResult",
     "pair_forces",
+    "pair_direction_matrix",
     "CRITERIA",
 ]
 
@@ -519,6 +520,43 @@ def _opening(geom, bridges):
 # --------------------------------------------------------------------------------------
 
 
+def pair_direction_matrix(centres, pairs=None):
+    """The linear map from pair forces to grain forces, F = A f.
+
+    Column m of ``A`` (3N rows: x, y, z of grain 0, then grain 1, ...) holds +u_ij in
+    the rows of grain i and -u_ij in those of grain j, u_ij the unit vector from i to
+    j of the m-th pair (i, j), so that F_i = sum_j f_ij u_ij with attraction f_ij > 0.
+    The pair forces are determined by the grain forces exactly when ``A`` has full
+    column rank.
+
+    Parameters
+    ----------
+    centres : array_like, shape (N, 3)
+    pairs : sequence of (i, j), optional
+        0-based grain pairs (default: every pair, in ``itertools.combinations`` order).
+
+    Returns
+    -------
+    A : numpy.ndarray, shape (3N, M)
+    pairs : list of (i, j) with i < j
+
+    >>> A, p = pair_direction_matrix([[0., 0, 0], [3, 0, 0]])
+    >>> A[:, 0].tolist(), p
+    ([1.0, 0.0, 0.0, -1.0, -0.0, -0.0], [(0, 1)])
+    """
+    C = np.asarray(centres, float)
+    n = len(C)
+    pairs = list(itertools.combinations(range(n), 2)) if pairs is None else \
+        [tuple(sorted(p)) for p in pairs]
+    A = np.zeros((3 * n, len(pairs)))
+    for m, (i, j) in enumerate(pairs):
+        u = C[j] - C[i]
+        u /= np.linalg.norm(u)
+        A[3 * i:3 * i + 3, m] = u
+        A[3 * j:3 * j + 3, m] = -u
+    return A, pairs
+
+
 def pair_forces(centres, forces, pairs=None):
     """Effective pair forces f_ij along the centre lines (attraction > 0).
 
@@ -535,19 +573,11 @@ def pair_forces(centres, forces, pairs=None):
     >>> [round(f[p], 6) for p in sorted(f)], res < 1e-12
     ([0.3, 0.2, -0.1], True)
     """
-    C = np.asarray(centres, float)
     F = np.asarray(forces, float)
-    n = len(C)
+    n = len(np.asarray(centres))
     if F.shape != (n, 3):
         raise CapbridgeInputError(f"forces must have shape ({n}, 3), got {F.shape}")
-    pairs = list(itertools.combinations(range(n), 2)) if pairs is None else \
-        [tuple(sorted(p)) for p in pairs]
-    A = np.zeros((3 * n, len(pairs)))
-    for m, (i, j) in enumerate(pairs):
-        u = C[j] - C[i]
-        u /= np.linalg.norm(u)
-        A[3 * i:3 * i + 3, m] = u
-        A[3 * j:3 * j + 3, m] = -u
+    A, pairs = pair_direction_matrix(centres, pairs)
     f, *_ = np.linalg.lstsq(A, F.ravel(), rcond=None)
     scale = max(float(np.max(np.linalg.norm(F, axis=1))), 1e-300)
     res = float(np.linalg.norm(A @ f - F.ravel()) / scale)

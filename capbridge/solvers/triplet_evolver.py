@@ -7,6 +7,8 @@
   residual of their decomposition (:func:`capbridge.solvers.triplet.pair_forces`),
   the energy and, for separate bridges, the angular gap left between the wetted caps of
   two bridges on every shared grain (measured on the converged mesh).
+* :func:`minimise_with_ring_retries` runs one minimisation again from finer starting
+  rings after a failure on the mesh (also used by :mod:`capbridge.solvers.cluster`).
 * :func:`coalescence_from_cap_gaps` locates the coalescence volume of separate bridges
   computed by Evolver (gravity) by extrapolating that cap gap to zero.
 * :func:`energy_comparison` puts the energy of the coalesced body (Evolver) beside the
@@ -45,8 +47,8 @@ CAP_GAP_EDGES = 0.05
 #: failure reasons after which a finer starting ring is tried
 _MESH_FAILURES = ("degenerate", "fold", "driver error")
 
-__all__ = ["evolver_triplet", "coalescence_from_cap_gaps", "energy_comparison",
-           "energy_convention_check", "cap_gaps_from_snapshot"]
+__all__ = ["evolver_triplet", "minimise_with_ring_retries", "coalescence_from_cap_gaps",
+           "energy_comparison", "energy_convention_check", "cap_gaps_from_snapshot"]
 
 
 def _settings(max_refine, tol, keep, **kw):
@@ -177,6 +179,43 @@ def lower_meniscus_height(snap, half_width=0.05):
     return float(X[sel, 2].min()) if np.any(sel) else np.nan
 
 
+def minimise_with_ring_retries(run, rings=(8, 12, 16)):
+    """Run one Evolver minimisation, retried from finer starting rings on mesh failures.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(n_ring) -> BridgeResult``: the minimisation with ``n_ring`` vertices per
+        starting contact ring (:class:`~capbridge.solvers.evolver.Settings`).
+    rings : sequence of int
+        The rings tried in turn; the next one only after a failure on the mesh
+        (degenerate or folded facets, or a driver error), which a finer starting ring
+        often avoids; a physical failure (pinch, penetration) is not retried.
+
+    Returns
+    -------
+    (BridgeResult, list of dict)
+        The last result, its ``cpu_time`` and ``wall_time`` summed over the attempts,
+        and the attempts (``n_ring``, ``status``, ``reason``).
+    """
+    attempts = []
+    wall = cpu = 0.0
+    for n_ring in rings:
+        res = run(n_ring)
+        wall += res.wall_time
+        cpu += res.cpu_time
+        attempts.append({"n_ring": n_ring, "status": res.status.name.lower(),
+                         "reason": res.reason})
+        retry = (res.status == Status.NOT_CONVERGED
+                 and any(k in res.reason for k in _MESH_FAILURES))
+        if not retry:
+            break
+        if res.workdir and os.path.isdir(res.workdir):
+            shutil.rmtree(res.workdir, ignore_errors=True)
+    res.wall_time, res.cpu_time = wall, cpu
+    return res, attempts
+
+
 def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
                     bridges=((0, 1), (0, 2)), fractions=None, bond=0.0, max_refine=3,
                     tol=3e-3, inspect_mesh=None, retry_rings=(8, 12, 16),
@@ -225,25 +264,12 @@ def evolver_triplet(volume, geom: TripletGeometry, theta, topology="coalesced",
         raise ValueError(f"topology {topology!r}: 'coalesced' or 'bridges'")
     measure = True if inspect_mesh is None else bool(inspect_mesh)
     rings = list(retry_rings) if "n_ring" not in settings else [settings["n_ring"]]
-    attempts = []
-    wall = cpu = 0.0
-    for n_ring in rings:
-        kw = dict(settings, n_ring=n_ring)
-        s = _settings(max_refine, tol, measure, **kw)
-        res = minimise_bridge(geom.centres, 1.0, t, vol, topology=topology, pairs=pairs,
-                              bond=float(bond), gravity_dir=tuple(map(float, gravity_dir)),
-                              settings=s)
-        wall += res.wall_time
-        cpu += res.cpu_time
-        attempts.append({"n_ring": n_ring, "status": res.status.name.lower(),
-                         "reason": res.reason})
-        retry = (res.status == Status.NOT_CONVERGED
-                 and any(k in res.reason for k in _MESH_FAILURES))
-        if not retry:
-            break
-        if res.workdir and os.path.isdir(res.workdir):
-            shutil.rmtree(res.workdir, ignore_errors=True)
-    res.wall_time, res.cpu_time = wall, cpu
+    res, attempts = minimise_with_ring_retries(
+        lambda n_ring: minimise_bridge(
+            geom.centres, 1.0, t, vol, topology=topology, pairs=pairs, bond=float(bond),
+            gravity_dir=tuple(map(float, gravity_dir)),
+            settings=_settings(max_refine, tol, measure, **dict(settings, n_ring=n_ring))),
+        rings)
     snap, mp = _final_snapshot(res) if measure else (None, None)
     gaps = section = None
     zlow = np.nan
