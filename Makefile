@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed
 # the same VTK 9.1 as YADE's libvtk9.1, numpy-API only, so it imports in the venv too.
 APT_PACKAGES := python3 python3-venv python3-pip yade evolver-nox evolver-doc python3-vtk9
 
-.PHONY: setup system-packages demo test test-fast bench bench-evolver data reproduce clean
+.PHONY: setup system-packages demo test test-fast bench bench-evolver data data-packings reproduce clean
 
 system-packages:
 	@missing=""; for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -70,6 +70,12 @@ data: setup
 	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
 	$(VENV)/bin/capbridge generate coalescence --checkpoint-dir .sweep-checkpoints/triplet_coalescence
 	$(VENV)/bin/capbridge generate triplet --jobs 2 --holdout 12 --checkpoint-dir sweeps/triplet
+
+# The second triplet table (issue 18: the domain packings reach), being computed: ~10 CPU
+# hours in all, resumed from the chunks committed in sweeps/triplet_packings; it joins
+# `data` when it ships.
+data-packings: setup
+	$(VENV)/bin/capbridge generate triplet --grid packings --jobs 2 --checkpoint-dir sweeps/triplet_packings
 
 clean:
 	rm -rf out .sweep-checkpoints
