@@ -49,6 +49,8 @@ test-fast: setup
 bench: setup
 	$(PY) benchmarks/bench_doublet.py
 	$(PY) benchmarks/bench_yade.py
+	$(PY) benchmarks/bench_pressure_base.py
+	$(PY) benchmarks/bench_triplet_packings.py --label current
 
 # Surface Evolver: the paper's protocol against ours, and the 200-triplet stress run
 # (hours; resumable).  Results: benchmarks/evolver_out/, summarised in RESULTS.md.
@@ -57,6 +59,7 @@ bench-evolver: setup
 	$(PY) benchmarks/bench_evolver.py stress --n 200 --jobs 2
 	$(PY) examples/evolver_convergence/run_convergence.py
 	$(PY) benchmarks/bench_evolver.py report
+	$(PY) benchmarks/bench_clusters.py
 
 # The triplet study of Miot et al. (2021): examples/miot2021 (resumable after a kill).
 reproduce: setup
