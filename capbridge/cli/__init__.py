@@ -28,6 +28,7 @@ from capbridge.cli.lookup import (DOUBLET_VECTOR_COLUMNS, LOOKUP_INPUTS, LOOKUP_
                                   cmd_lookup_doublet, cmd_lookup_triplet)
 from capbridge.cli.messages import configure_logging, one_line
 from capbridge.cli.parser import (ALLOW_UNVERIFIED_OPTION, CommandLineParser,
+                                  add_evolver_gravity_options, add_shape_options,
                                   add_triplet_gaps, evolver_refine_level,
                                   number_in_range, parse_gravity)
 from capbridge.cli.reproduce import cmd_reproduce
@@ -100,13 +101,8 @@ def build_parser():
     sd.add_argument("--max-refine", type=evolver_refine_level(), default=3,
                     help="Evolver refinement level in [2, 6] (only for --gravity off the "
                          "axis; below 2 there is no error estimate, so it is refused)")
-    sd.add_argument("--shape", default=None, metavar="OUT.vtp",
-                    help="also write the liquid surface (triangles, lengths / R1) to OUT.vtp "
-                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView" +
-                         " (exact profile revolved; Surface Evolver's surface with gravity"
-                         " off the axis; not with gravity along the axis)")
-    sd.add_argument("--overwrite", action="store_true",
-                    help="replace existing --shape files")
+    add_shape_options(sd, "R1", "exact profile revolved; Surface Evolver's surface with "
+                      "gravity off the axis; not with gravity along the axis")
     sd.set_defaults(func=cmd_solve_doublet)
     st = solve.add_parser("triplet", help="one Surface Evolver minimisation of a coalesced "
                           "liquid body on three equal spheres (JSON out)")
@@ -117,16 +113,9 @@ def build_parser():
                     help="finest Evolver refinement level in [2, 6] (default 3, as the "
                          "table); level 1 alone has no error estimate (forces ~5 %% off), "
                          "so it is refused")
-    st.add_argument("--bond", type=float, default=None, metavar="BO",
-                    help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 5]")
-    st.add_argument("--gravity", default=None, metavar="X,Y,Z",
-                    help="direction along which gravity pulls (default 0,0,-1) in the "
-                         "table frame: grains 2 and 3 on the x axis, grain 1 at z > 0")
-    st.add_argument("--shape", default=None, metavar="OUT.vtp",
-                    help="also write the liquid surface (triangles, lengths / r) to OUT.vtp "
-                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView")
-    st.add_argument("--overwrite", action="store_true",
-                    help="replace existing --shape files")
+    add_evolver_gravity_options(st, "the table frame: grains 2 and 3 on the x axis, "
+                                    "grain 1 at z > 0")
+    add_shape_options(st, "r")
     st.set_defaults(func=cmd_solve_triplet)
     sc = solve.add_parser("cluster", help="one Surface Evolver minimisation of one liquid "
                           "body wetting N grains read from a CSV file (JSON out)")
@@ -139,16 +128,8 @@ def build_parser():
                     help="contact angle [deg], in [0, 90)")
     sc.add_argument("--max-refine", type=evolver_refine_level(), default=3,
                     help="finest Evolver refinement level in [2, 6] (default 3)")
-    sc.add_argument("--bond", type=float, default=None, metavar="BO",
-                    help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in [0, 5]")
-    sc.add_argument("--gravity", default=None, metavar="X,Y,Z",
-                    help="direction along which gravity pulls (default 0,0,-1) in the "
-                         "file's frame")
-    sc.add_argument("--shape", default=None, metavar="OUT.vtp",
-                    help="also write the liquid surface (triangles, lengths / r) to OUT.vtp "
-                         "(or .vtk) and the grains to OUT_grains.vtp, for ParaView")
-    sc.add_argument("--overwrite", action="store_true",
-                    help="replace existing --shape files")
+    add_evolver_gravity_options(sc, "the file's frame")
+    add_shape_options(sc, "r")
     sc.set_defaults(func=cmd_solve_cluster)
 
     look = sub.add_parser("lookup", help="surrogate lookups").add_subparsers(dest="what", required=True)

@@ -74,6 +74,27 @@ def add_triplet_gaps(parser):
                             help=f"gap between grains {i} and {j}, d/r")
 
 
+def add_shape_options(parser, unit, note=""):
+    """``--shape OUT.vtp`` and ``--overwrite`` of the solve commands (lengths / ``unit``;
+    ``note``: which surface the command writes, when it is not Surface Evolver's)."""
+    parser.add_argument("--shape", default=None, metavar="OUT.vtp",
+                        help=f"also write the liquid surface (triangles, lengths / {unit}) to "
+                             "OUT.vtp (or .vtk) and the grains to OUT_grains.vtp, for "
+                             "ParaView" + (f" ({note})" if note else ""))
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace existing --shape files")
+
+
+def add_evolver_gravity_options(parser, frame):
+    """``--bond`` and ``--gravity`` of the Surface Evolver solves (``frame``: the frame of
+    the direction, in words)."""
+    parser.add_argument("--bond", type=float, default=None, metavar="BO",
+                        help="gravity on the liquid: Bond number Bo = drho g r^2/gamma in "
+                             "[0, 5]")
+    parser.add_argument("--gravity", default=None, metavar="X,Y,Z",
+                        help=f"direction along which gravity pulls (default 0,0,-1) in {frame}")
+
+
 def parse_gravity(bond, gravity, bond_max, what):
     """(Bo, unit direction) from ``--bond BO`` and ``--gravity X,Y,Z`` (text or None).
 
