@@ -1,2 +1,2 @@
 """capbridge's version (recorded in every table and export it writes)."""
-__version__ = "0.1.0"
+__version__ = "0.2.0"
