@@ -118,19 +118,26 @@ def _solve_doublet_gravity(args, bond, direction):
     return 0 if st in (Status.CONVERGED, Status.ABOVE_TOLERANCE) else 3
 
 
-def cmd_solve_triplet(args):
-    """One Surface Evolver minimisation of a coalesced body on three equal spheres."""
-    from capbridge.solvers.triplet import triplet_geometry
-    from capbridge.solvers.triplet_evolver import evolver_triplet
+def _evolver_inputs(args, volume_hint):
+    """``--V``, ``--theta``, ``--bond``/``--gravity`` of the Surface Evolver solves,
+    checked: (V*, theta, Bo, direction or None)."""
     from capbridge.solvers.young_laplace_gravity import BOND_MAX as SOLVER_BOND_MAX
 
-    geom = triplet_geometry(args.d12, args.d13, args.d23)
-    V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True,
-                          hint="total liquid volume V* = V/r^3"))
+    V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True, hint=volume_hint))
     theta = float(check_range("--theta", args.theta, 0.0, 90.0, high_open=True,
                               units=" deg"))
     bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
                                     "the solvers' range")
+    return V, theta, bond, direction
+
+
+def cmd_solve_triplet(args):
+    """One Surface Evolver minimisation of a coalesced body on three equal spheres."""
+    from capbridge.solvers.triplet import triplet_geometry
+    from capbridge.solvers.triplet_evolver import evolver_triplet
+
+    geom = triplet_geometry(args.d12, args.d13, args.d23)
+    V, theta, bond, direction = _evolver_inputs(args, "total liquid volume V* = V/r^3")
     kw = {} if args.bond is None else {"bond": bond, "gravity_dir": tuple(direction)}
     _check_shape_target(args)
     r = evolver_triplet(V, geom, theta, "coalesced", max_refine=args.max_refine,
@@ -163,7 +170,6 @@ def cmd_solve_cluster(args):
     """One Surface Evolver minimisation of one liquid body wetting the grains of a CSV
     file (columns x, y, z, radius in units of the smallest radius)."""
     from capbridge.solvers.cluster import solve_cluster
-    from capbridge.solvers.young_laplace_gravity import BOND_MAX as SOLVER_BOND_MAX
     from capbridge.tabular_io import read_points_csv
 
     _, cols = read_points_csv(args.grains, CLUSTER_COLUMNS)
@@ -172,12 +178,8 @@ def cmd_solve_cluster(args):
         raise CapbridgeInputError(f"{args.grains}: {n} grain; a cluster needs at least 2 "
                                   "rows (one per grain)")
     centres = np.column_stack([cols[c] for c in CLUSTER_COLUMNS[:3]])
-    V = float(check_range("--V", args.V, 0.0, np.inf, low_open=True,
-                          hint="total liquid volume V* = V/r^3, r the smallest radius"))
-    theta = float(check_range("--theta", args.theta, 0.0, 90.0, high_open=True,
-                              units=" deg"))
-    bond, direction = parse_gravity(args.bond, args.gravity, SOLVER_BOND_MAX,
-                                    "the solvers' range")
+    V, theta, bond, direction = _evolver_inputs(
+        args, "total liquid volume V* = V/r^3, r the smallest radius")
     _check_shape_target(args)
     try:
         r = solve_cluster(centres, cols["radius"], V, theta, bond=bond, gravity=direction,

@@ -80,6 +80,7 @@ import time
 import numpy as np
 
 from capbridge.dimensionless import force_scale
+from capbridge.physics.gravity import BOND_MAX
 from capbridge.status import HAS_RESULT, Status
 from capbridge.validation import CapbridgeInputError
 
@@ -516,8 +517,6 @@ class LiquidClusters:
         """What the lookup needs for gravity on the clusters' liquid, or None (no
         gravity, or a table without a response: then :meth:`_gravity_fallback` is not
         needed either, the forces are the zero-gravity ones, counted)."""
-        from capbridge.surrogate.doublet import BOND_MAX
-
         if not gravity or self.gravity is None:
             return None
         g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
