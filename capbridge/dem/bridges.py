@@ -273,13 +273,6 @@ class BridgeModel:
         np.add.at(self.films, i, vol * a / (a + b))
         np.add.at(self.films, j, vol * b / (a + b))
 
-    def _clip_volume(self, i, j, vol):
-        """Volumes limited to the table's V* range: (kept, too_small mask)."""
-        rs = np.minimum(self.radii[i], self.radii[j])
-        lo, hi = self.table.vstar_range
-        kept = np.minimum(vol, hi * rs**3)
-        return kept, kept < lo * rs**3 * (1 + 1e-12)
-
     def _form(self, i, j, step):
         """New bridges on touching pairs i, j (arrays) under the liquid rule.
 
