@@ -51,7 +51,7 @@ import numpy as np
 from sklearn.base import BaseEstimator
 from sklearn.exceptions import NotFittedError
 
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import HAS_RESULT, Status, status_in
 from capbridge.surrogate.names import (CSV_COLUMNS, DOUBLET_OUTPUTS, OUTPUT_NAMES,
                                       TRIPLET_OUTPUTS, WALL_OUTPUTS, csv_columns)
 
@@ -87,7 +87,7 @@ def worst_status(a, *others):
 
 def has_number(status):
     """True where the status carries numbers (:data:`WITH_NUMBER`)."""
-    return np.isin(status, [int(s) for s in WITH_NUMBER])
+    return status_in(status, WITH_NUMBER)
 
 
 def apply_no_result_rule(out, status, forces=("force",), keep=("rupture_gap",)):

@@ -17,7 +17,7 @@ from scipy.interpolate import make_interp_spline
 from capbridge.tables import DOUBLET_TABLE
 from capbridge.tables.description import (describe_doublet_gravity, describe_table,
                                           json_friendly)
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import HAS_RESULT, Status, status_in
 from capbridge.surrogate.grid import (UniformAxis, bilinear, bilinear_flat, refine_axis,
                                       trilinear)
 from capbridge.surrogate.base import (SurrogateBase, apply_no_result_rule, has_number,
@@ -507,12 +507,12 @@ class DoubletSurrogate(SurrogateBase):
             # without the point (clipped: code 1) matters next to rupture only
             code = worst_status(code, np.where(near | (rcode == Status.NOT_CONVERGED), rcode,
                                                np.int8(Status.CONVERGED)))
-            has = np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED))
+            has = status_in(sto, (Status.CONVERGED, Status.EXTRAPOLATED))
             beyond0 = sto == Status.RUPTURED
             sto = np.where(has & (code == Status.NOT_CONVERGED), np.int8(Status.NOT_CONVERGED),
                            sto)
             sto = np.where(beyond0 & (gon <= rg), np.int8(Status.OUT_OF_RANGE), sto)
-            sto = np.where(np.isin(sto, (Status.CONVERGED, Status.EXTRAPOLATED)) & (gon > rg),
+            sto = np.where(status_in(sto, (Status.CONVERGED, Status.EXTRAPOLATED)) & (gon > rg),
                            np.int8(Status.RUPTURED), sto)
             b_perp = np.linalg.norm(b[on][:, 1:], axis=-1)
             transverse = b_perp > 0
@@ -529,7 +529,7 @@ class DoubletSurrogate(SurrogateBase):
         F1 = np.where(on[..., None], F1, F0[..., None] * n)
         F2 = np.where(on[..., None], F2, -F0[..., None] * n)
         ruptured = st == Status.RUPTURED
-        nores = ~np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED, Status.RUPTURED))
+        nores = ~status_in(st, HAS_RESULT + (Status.EXTRAPOLATED, Status.RUPTURED))
         for F in (F1, F2):
             F[ruptured] = 0.0
             F[nores] = np.nan

@@ -77,7 +77,7 @@ import json
 import numpy as np
 import xarray as xr
 
-from capbridge.status import Status
+from capbridge.status import Status, status_in
 from capbridge.surrogate.base import SurrogateBase
 from capbridge.surrogate.doublet import SI_RADIUS_RANGE, SI_SURFACE_TENSION_RANGE, si_bond
 from capbridge.surrogate.grid import Descending as _Descending
@@ -687,7 +687,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         interp = 0.0 if self.interpolation_error_ is None else \
             self.interpolation_error_["max_rel_error"]
         res["force_error"] = self.cell_force_error_.ravel()[cidx] + interp * fmax
-        nores = ~np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE,
+        nores = ~status_in(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE,
                                   Status.EXTRAPOLATED))
         for name in GRID_VARIABLES + ("force_error",):
             res[name] = np.where(nores, np.nan, res[name])
@@ -850,7 +850,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         for _, _, look in looks[1:]:
             status = combine_status(status, look["status"])
         if not np.all(equal):
-            has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            has = status_in(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
             status = np.where(has & ~equal, np.int8(Status.APPROXIMATE), status)
         res["status"] = np.asarray(status, np.int8)
         for k, name in enumerate(PAIR_NAMES):

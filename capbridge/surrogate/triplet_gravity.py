@@ -24,7 +24,7 @@ import numpy as np
 
 from capbridge.physics.gravity import BOND_MAX, check_bond, gravity_vector, liquid_weight
 from capbridge.solvers.triplet import table_frame
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import HAS_RESULT, Status, status_in
 from capbridge.surrogate.grid import FineAxis, Grid
 from capbridge.surrogate.triplet_holdout import gravity_holdout_errors
 from capbridge.surrogate.triplet_nodes import cell_max
@@ -64,7 +64,7 @@ class TripletGravityResponse:
         gv = np.asarray(ds["gravity_v"].values, float)
         Vc = np.asarray(ds["volume_coalescence"].transpose(*dims[:4]).values, float)
         W = liquid_weight(Vc[..., None] * gv)
-        ok = np.isin(st, [int(x) for x in HAS_RESULT]) & np.isfinite(W) & (W > 0) & \
+        ok = status_in(st, HAS_RESULT) & np.isfinite(W) & (W > 0) & \
             np.isfinite(G).all((-3, -2, -1)) & np.isfinite(C).all((-3, -2, -1)) & \
             np.isfinite(res)
         Wn = np.where(ok, W, 1.0)[..., None, None, None]
@@ -169,14 +169,14 @@ class TripletGravityResponse:
             second[on] = np.matmul(d2, QT)
             resid[on] = resid_on
             st = status[on]
-            has = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            has = status_in(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
             approx = (code == Status.APPROXIMATE) | (bo[on] > self.gravity_bond_max_ * (1 + 1e-12))
             st = np.where(has & approx, np.int8(Status.APPROXIMATE), st)
             st = np.where((code == Status.NOT_CONVERGED)
-                          & np.isin(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
+                          & status_in(st, HAS_RESULT + (Status.EXTRAPOLATED,)),
                           np.int8(Status.NOT_CONVERGED), st)
             status[on] = st
-            nores = ~np.isin(status, HAS_RESULT + (Status.EXTRAPOLATED,))
+            nores = ~status_in(status, HAS_RESULT + (Status.EXTRAPOLATED,))
             first[nores] = np.nan
             second[nores] = np.nan
         res["forces"] = np.where(on[..., None, None], F + first + second, F)

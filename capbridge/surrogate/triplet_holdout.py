@@ -22,7 +22,7 @@ import numpy as np
 
 from capbridge.physics.gravity import BOND_MAX
 from capbridge.solvers.triplet import triplet_geometry
-from capbridge.status import HAS_RESULT, Status
+from capbridge.status import HAS_RESULT, Status, status_in
 from capbridge.surrogate.triplet_nodes import PAIR_NAMES, PAIRS
 from capbridge.validation import CapbridgeInputError
 
@@ -37,7 +37,7 @@ def holdout_points(ds):
     h = {k: np.asarray(ds[f"holdout_{k}"].values, float) for k in
          ("d12", "d13", "d23", "theta", "v", "volume", "f12", "f13", "f23")}
     h["status"] = np.asarray(ds["holdout_status"].values)
-    h["ok"] = np.isin(h["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
+    h["ok"] = status_in(h["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
         np.isfinite(np.stack([h[n] for n in PAIR_NAMES])).all(0)
     h["n"] = int(h["ok"].sum())
     return h
@@ -79,7 +79,7 @@ def holdout_errors(surrogate, by="volume", permute=False):
             f_sur = np.stack([r[n] for n in PAIR_NAMES], 1)
             ref = np.stack([f_ref[:, PAIRS.index(tuple(sorted((p[i], p[j]))))]
                             for i, j in PAIRS], 1)
-            ok = h["ok"] & np.isin(r["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+            ok = h["ok"] & status_in(r["status"], (Status.CONVERGED, Status.ABOVE_TOLERANCE))
             errs.append(np.abs(f_sur / ref - 1.0))
             refs.append(np.abs(ref))
             used.append(ok)
@@ -144,7 +144,7 @@ def gravity_holdout_errors(surrogate, table=None):
                            *direction[k]], 9)) for k in range(n)]
     cases = {k: i for i, k in enumerate(dict.fromkeys(key))}
     case = np.array([cases[k] for k in key])
-    okd = np.isin(h["status"], [int(x) for x in HAS_RESULT]) & np.isfinite(Fd).all((1, 2))
+    okd = status_in(h["status"], HAS_RESULT) & np.isfinite(Fd).all((1, 2))
     err = np.full(n, np.nan)
     eff = np.full(n, np.nan)
     keep = surrogate.out_of_range
@@ -159,7 +159,7 @@ def gravity_holdout_errors(surrogate, table=None):
             r = surrogate.predict_vectors(cen, float(h["volume"][k]), float(h["theta"][k]),
                                           bond=bo, gravity=direction[k]
                                           if np.any(direction[k]) else None)
-            if not np.isin(r["status"], HAS_RESULT + (Status.EXTRAPOLATED,)):
+            if not status_in(r["status"], HAS_RESULT + (Status.EXTRAPOLATED,)):
                 continue
             scale = np.max(np.linalg.norm(Fd[k], axis=-1))
             err[k] = np.max(np.abs(r["forces"] - Fd[k])) / scale

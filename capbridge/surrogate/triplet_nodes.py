@@ -21,7 +21,7 @@ import json
 import numpy as np
 
 from capbridge.dimensionless import TRIPLET_PAIR_NAMES, TRIPLET_PAIRS
-from capbridge.status import Status
+from capbridge.status import Status, status_in
 
 __all__ = ["PAIR_NAMES", "PAIRS", "GRID_VARIABLES", "node_data", "cell_max", "fill_failed",
            "symmetrise"]
@@ -42,7 +42,7 @@ def node_data(ds):
     no_eq = kinds.index("no_equilibrium") if "no_equilibrium" in kinds else -1
     vals = np.stack([np.asarray(ds[n].values, float) for n in
                      ("f12", "f13", "f23", "pressure", "energy_extrapolated")], -1)
-    has = np.isin(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
+    has = status_in(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE)) & \
         np.isfinite(vals).all(-1)
     code = np.where(status == Status.ABOVE_TOLERANCE, 1, 0)
     code = np.where(~has, np.where(failure == no_eq, 3, 2), code)

@@ -143,9 +143,9 @@ def _refuse(ds, source, name, mask, what, kind, values=None):
 
 
 def _has_result(status):
-    from capbridge.status import HAS_RESULT
+    from capbridge.status import HAS_RESULT, status_in
 
-    return np.isin(np.asarray(status), [int(s) for s in HAS_RESULT])
+    return status_in(status, HAS_RESULT)
 
 
 def _values(ds, name, dims=None):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from capbridge.status import HAS_RESULT, Status, status_name
+from capbridge.status import HAS_RESULT, Status, status_in, status_name
 from capbridge.tables.netcdf_io import checksum_state
 
 #: prefixes of the attributes that hold a table's stored error model: held-out
@@ -82,7 +82,7 @@ def describe_evolver_points(ds: xr.Dataset) -> dict:
     a result (CONVERGED or ABOVE_TOLERANCE) ``cpu_time_median`` [CPU s],
     ``force_error_rel_median`` and ``force_error_rel_max`` (None without such points)."""
     st = np.asarray(ds["status"].values)
-    ok = np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+    ok = status_in(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
     out = {"settings": ds.attrs.get("evolver_settings"), "cpu_time_median": None,
            "force_error_rel_median": None, "force_error_rel_max": None}
     if ok.any():
@@ -125,7 +125,7 @@ def describe_doublet_gravity(ds: xr.Dataset, names) -> dict:
     if "gravity_status" in ds:
         st = np.asarray(ds["gravity_status"].values)
         points = {"total": int(st.size),
-                  "with_result": int(np.isin(st, [int(x) for x in HAS_RESULT]).sum()),
+                  "with_result": int(status_in(st, HAS_RESULT).sum()),
                   "above_tolerance": int((st == Status.ABOVE_TOLERANCE).sum())}
     prefix = "gravity_holdout_"
     holdout = {k[len(prefix):]: json_friendly(v) for k, v in ds.attrs.items()

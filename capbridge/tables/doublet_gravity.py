@@ -75,7 +75,7 @@ from capbridge.solvers.young_laplace_gravity import (GravitySettings, bridge_for
                                                        newton_solve, point_dict,
                                                        zero_gravity_start,
                                                        rupture_distance_gravity)
-from capbridge.status import Status
+from capbridge.status import Status, status_in
 from capbridge.physics.gravity import transverse_weight_share
 
 #: tolerance of a response point's own error estimate, relative to its attraction F0
@@ -403,7 +403,7 @@ def gravity_datasets(grid, rupture_gap, plan, phase):
     st[ok] = res["status"]
     st = st.reshape(shape)
     for name in data:    # ABOVE_TOLERANCE keeps its numbers (the surrogate flags them)
-        data[name][~np.isin(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))] = np.nan
+        data[name][~status_in(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))] = np.nan
     gdims = ("ratio", "gravity_theta", "gravity_volume", "gravity_s")
     dv = {name: (gdims, arr, GRAVITY_ATTRS[name]) for name, arr in data.items()}
     dv["gravity_status"] = (gdims, st, cf_flag_attributes() | {

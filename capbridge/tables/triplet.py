@@ -52,7 +52,7 @@ from capbridge.tables.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.tables.triplet_gravity import (GravityPlan, gravity_chunk,
                                                  gravity_holdout_chunk,
                                                  rotate_gravity_tensor, stack_tensors)
-from capbridge.status import HAS_RESULT, Status, cf_flag_attributes
+from capbridge.status import HAS_RESULT, Status, cf_flag_attributes, status_in
 
 __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_table",
            "table_axes",
@@ -581,7 +581,7 @@ def _gravity_dataset(grid, gplan, canon, vref, status, phase):
         raise ValueError(f"gravity volume ratios {list(gv)} must be nodes of v {list(v_all)}")
     theta = np.asarray(grid.theta, float)
     nc, nt, nv = len(canon), theta.size, gv.size
-    ok = np.isin(status[:, :, iv], [int(s) for s in HAS_RESULT])
+    ok = status_in(status[:, :, iv], HAS_RESULT)
     vol = np.where(ok, vref[..., None] * gv, np.nan)
     Gp = np.repeat(canon, nt * nv, axis=0)
     res = phase("gravity_response", functools.partial(gravity_chunk, plan=gplan),
