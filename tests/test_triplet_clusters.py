@@ -447,3 +447,28 @@ def test_equal_pressure_shares_of_unequal_grains(theta):
         # not the equal-radii answer: the radii matter
         v_eq = table_equal_pressure(d, list(gaps), V, theta, (vol.min(), vol.max()))
         assert np.abs(v - v_eq).max() > 1e-2 * V
+
+
+def test_lookup_takes_dem_contacts_at_gap_zero_and_skips_deeper_overlaps(sur, doublets):
+    """The lookup at the grains' own centres: two contacts overlapping by 2e-4 r (a
+    DEM contact) get the surrogate's answer at gap 0 along the actual centre lines;
+    an overlap of 0.06 r (deeper than CONTACT_OVERLAP_MAX) is not looked up: no
+    number, counted as a gap outside the table, and no exception."""
+    from capbridge.validation import CONTACT_OVERLAP_MAX
+
+    g, V = _geometry(sur, 0.0)
+    cl = LiquidClusters(GAMMA, surrogate=sur)
+    for overlap, answered in ((2e-4, True), (CONTACT_OVERLAP_MAX + 0.01, False)):
+        pos = triangle_centres(2 + g[0], 2 - overlap, 2 - overlap) * R
+        m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
+        res = cl.lookup(m, pos, np.array([[0, 1, 2]]), np.array([V]))
+        assert bool(res["asked"][0]) is answered
+        if answered:
+            ref = sur.predict(g[0], 0.0, 0.0, V / R**3, 0.0)
+            np.testing.assert_allclose(
+                res["f"][0], [float(ref[n]) * force_scale(R, GAMMA)
+                              for n in ("f12", "f13", "f23")], rtol=1e-12)
+            assert int(res["status"][0]) == int(ref["status"])
+        else:
+            assert np.isnan(res["f"][0]).all()
+            assert int(res["status"][0]) == Status.OUT_OF_RANGE

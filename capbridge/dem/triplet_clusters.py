@@ -82,7 +82,7 @@ import numpy as np
 from capbridge.dimensionless import force_scale
 from capbridge.physics.gravity import BOND_MAX
 from capbridge.status import HAS_RESULT, Status, status_in
-from capbridge.validation import CapbridgeInputError
+from capbridge.validation import CONTACT_OVERLAP_MAX, CapbridgeInputError
 
 __all__ = ["LiquidClusters", "EVENTS", "set_bridge_volumes", "triangle_centres",
            "load_surrogate", "table_equal_pressure", "SPLIT_SOLVERS"]
@@ -216,23 +216,6 @@ def table_equal_pressure(doublet, gaps, volume, theta, vstar_range, n_grid=96, n
         if np.any(V / s**3 < lo) or np.any(V / s**3 > hi):
             return None
     return V
-
-
-def _cross(a, b):
-    """Row-wise a x b of (k, 3) arrays (np.cross costs ~10 times more on the few
-    rows of a step's clusters)."""
-    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
-                     a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
-                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=-1)
-
-
-def _frame(a, b):
-    """Orthonormal frames (k, 3, 3), rows e1 = a/|a|, e2 in the plane of a and b,
-    e3 = e1 x e2."""
-    e1 = a / np.sqrt(np.einsum("ki,ki->k", a, a))[:, None]
-    n = _cross(a, b)
-    e3 = n / np.sqrt(np.einsum("ki,ki->k", n, n))[:, None]
-    return np.stack([e1, _cross(e3, e1), e3], axis=-2)
 
 
 def triangle_centres(L01, L02, L12):
@@ -469,32 +452,39 @@ class LiquidClusters:
         R = model.radii[grains]                                    # (k, 3)
         P = ((0, 1), (0, 2), (1, 2))
         d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
-        dist = np.linalg.norm(d, axis=-1)
+        dist = np.sqrt(np.einsum("kpi,kpi->kp", d, d))
         u = d / dist[..., None]
-        gaps = np.stack([dist[:, m] - R[:, a] - R[:, b] for m, (a, b) in enumerate(P)], 1)
+        Rsum = np.stack([R[:, a] + R[:, b] for a, b in P], 1)
+        gaps = dist - Rsum
         g = np.maximum(gaps, 0.0)
-        L = np.stack([g[:, m] + R[:, a] + R[:, b] for m, (a, b) in enumerate(P)], 1)
-        C = triangle_centres(L[:, 0], L[:, 1], L[:, 2])
         theta = model.theta[grains[:, 0]]
         out = {"f": np.full((k, 3), np.nan), "status": np.full(k, Status.OUT_OF_RANGE, np.int8),
                "lower": np.full(k, 3, np.int8), "u": u, "gaps": gaps, "v": np.full(k, np.nan)}
         # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
         # predict_vectors also gives the lower-energy state
         r = R.min(axis=1)
-        grav = self._gravity_request(gravity, sur, d, r) if k else None
+        grav = self._gravity_request(gravity, sur, r) if k else None
         # clusters whose gaps (scaled as predict_vectors scales them) or angle are
-        # outside the table are OUT_OF_RANGE without a lookup
+        # outside the table, or with a DEM overlap deeper than a contact's, are
+        # OUT_OF_RANGE without a lookup
+        Rmin = np.stack([np.minimum(R[:, a], R[:, b]) for a, b in P], 1)
         out["asked"] = sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
-                                  radii=R / r[:, None])
+                                  radii=R / r[:, None]) & \
+            np.all(gaps >= -CONTACT_OVERLAP_MAX * Rmin, axis=1)
         ask = np.flatnonzero(out["asked"])
         if grav is not None:
             out["gravity"] = np.full((k, 3, 3), np.nan)
         if ask.size:
+            # the scene's own centres (grain 0 at the origin): forces and gravity parts
+            # come back in the scene frame; contacts are looked up at gap 0 there
+            C = np.zeros((ask.size, 3, 3))
+            C[:, 1], C[:, 2] = d[ask, 0], d[ask, 1]
+            rk = r[ask]
             kw = {} if grav is None else {"bond": grav["bond"][ask],
-                                          "gravity": grav["local"][ask]}
+                                          "gravity": grav["direction"]}
             try:
-                res = sur.predict_vectors(C[ask] / r[ask, None, None], volume[ask] / r[ask]**3,
-                                          theta[ask], radii=R[ask] / r[ask, None], **kw)
+                res = sur.predict_vectors(C / rk[:, None, None], volume[ask] / rk**3,
+                                          theta[ask], radii=R[ask] / rk[:, None], **kw)
             except CapbridgeInputError:
                 if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
                     for c in ask:
@@ -504,7 +494,7 @@ class LiquidClusters:
                             if key in out:
                                 out[key][c] = one[key][0]
             else:
-                fs = force_scale(r[ask], self.gamma)
+                fs = force_scale(rk, self.gamma)
                 out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
                     fs[:, None]
                 out["status"][ask] = res.get("status_without_gravity", res["status"])
@@ -513,14 +503,13 @@ class LiquidClusters:
                 if grav is not None:
                     part = res["gravity_first_order"] + res["gravity_second_order"]
                     part[grav["bond"][ask] == 0.0] = np.nan     # Bo above the table's
-                    out["gravity"][ask] = np.einsum(
-                        "kji,kgj->kgi", grav["S"][ask], part) * fs[:, None, None]
+                    out["gravity"][ask] = part * fs[:, None, None]
         if grav is not None:
             out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume, r)
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
 
-    def _gravity_request(self, gravity, sur, d, r):
+    def _gravity_request(self, gravity, sur, r):
         """What the lookup needs for gravity on the clusters' liquid, or None (no
         gravity, or a table without a response: then :meth:`_gravity_fallback` is not
         needed either, the forces are the zero-gravity ones, counted)."""
@@ -530,19 +519,14 @@ class LiquidClusters:
         gn = float(np.linalg.norm(g_vec))
         if gn == 0.0 or drho == 0.0:
             return None
-        k = d.shape[0]
+        k = r.shape[0]
         if not getattr(sur, "has_gravity_", False):
             self.gravity_fallback += k
             self.gravity_fallback_reasons["table_has_no_response"] += k
             return None
-        # the lookup geometry (triangle_centres) has grain 0 -> 1 along x and grain 2
-        # in the xy plane: its frame is the scene's S, whose rows are those axes
-        S = _frame(d[:, 0], d[:, 1])                        # scene, rows e1 e2 e3
-        local = np.einsum("kij,j->ki", S, g_vec) / gn
         bond = drho * gn * r**2 / self.gamma
         above = bond > BOND_MAX
-        return {"S": S, "local": local, "bond": np.where(above, 0.0, bond),
-                "bond_all": bond, "above": above}
+        return {"direction": g_vec, "bond": np.where(above, 0.0, bond), "above": above}
 
     def _gravity_fallback(self, part, grav, volume, r):
         """Clusters whose gravity response has no number (a cell touching a gravity
@@ -570,9 +554,9 @@ class LiquidClusters:
         ``bond`` and ``gravity``: F_i(b) - F_i(0) = Q (G_i b_t + C_i b_t^2 / 2), the
         first- and diagonal second-order terms; they sum over the grains to the
         liquid's weight drho V g up to the table's ``gravity_sum_residual``) at the
-        lookup geometry (:func:`triangle_centres` of the gaps, those below zero taken
-        as contact), rotated into the scene by the frame of the grains' centre lines
-        (grain 0 -> 1 and the plane of the three).  A cluster whose Bo is above the
+        grains' own centres (gaps below zero taken as contact), in the scene frame
+        (the table frame of those centres, :func:`~capbridge.solvers.triplet.
+        table_frame`, is applied by the surrogate).  A cluster whose Bo is above the
         surrogate's ``BOND_MAX`` or whose response has no number there gets the
         liquid's weight shared equally by its three grains (:meth:`_gravity_fallback`,
         counted in :attr:`gravity_fallback` and by reason in
