@@ -472,3 +472,33 @@ def test_lookup_takes_dem_contacts_at_gap_zero_and_skips_deeper_overlaps(sur, do
         else:
             assert np.isnan(res["f"][0]).all()
             assert int(res["status"][0]) == Status.OUT_OF_RANGE
+
+
+def test_life_distributions_stay_bounded_and_survive_a_restart(monkeypatch):
+    """Lives and force jumps are kept exactly up to STATS_KEPT values, then as a
+    uniform sample of that size with the exact count and maximum; a restart from the
+    saved state continues the same sample, and a state saved before the counts
+    existed gets them from its lists."""
+    from capbridge.dem import triplet_clusters as tc
+
+    monkeypatch.setattr(tc, "STATS_KEPT", 50)
+    cl = LiquidClusters(GAMMA)
+    values = np.arange(1, 1001, dtype=float)
+    tc._record(cl.stats, "lives", values[:400])
+    st = cl.get_state()
+    again = LiquidClusters(GAMMA)
+    again.set_state(st)
+    tc._record(cl.stats, "lives", values[400:])
+    tc._record(again.stats, "lives", values[400:])
+    assert cl.stats["lives"] == again.stats["lives"]
+    s = cl.life_summary()["ended_lives"]
+    assert len(cl.stats["lives"]) == 50
+    assert s["n"] == 1000 and s["max"] == 1000.0 and s["sampled"] == 50
+    assert 300 < s["median"] < 700                 # a uniform sample of 1..1000
+    assert len(set(cl.stats["lives"]) & set(values[:50])) < 25   # not just the first
+    old = cl.get_state()
+    for k in ("lives_n", "lives_max"):
+        del old["stats"][k]
+    legacy = LiquidClusters(GAMMA)
+    legacy.set_state(old)
+    assert legacy.stats["lives_n"] == 50 and legacy.stats["lives_max"] == max(cl.stats["lives"])

@@ -271,10 +271,38 @@ def set_bridge_volumes(model, rows, volumes):
     model.set_volumes(rows, volumes)
 
 
+#: the statistics of :meth:`LiquidClusters.life_summary` that are distributions
+SAMPLED_STATS = ("lives", "merge_jumps", "split_jumps")
+
+#: values kept per distribution; beyond that a uniform sample of this size, so that a
+#: long run's saved state does not grow with its events (800 kB each at most)
+STATS_KEPT = 100_000
+
+
+def _record(stats, key, values):
+    """Add ``values`` to the distribution ``key`` of ``stats``: every value up to
+    :data:`STATS_KEPT`, then reservoir sampling (value n replaces a uniformly drawn
+    slot with probability STATS_KEPT / n; the draw is seeded by n, so a restart
+    continues the same sample), with the exact count and maximum beside it."""
+    kept = stats[key]
+    for x in values:
+        n = stats[key + "_n"]
+        stats[key + "_n"] = n + 1
+        stats[key + "_max"] = max(stats[key + "_max"], float(x))
+        if len(kept) < STATS_KEPT:
+            kept.append(float(x))
+        else:
+            j = int(np.random.default_rng(n).integers(0, n + 1))
+            if j < STATS_KEPT:
+                kept[j] = float(x)
+
+
 def _new_stats():
     """Counters of how clusters live (:meth:`LiquidClusters.report`, ``"life"``)."""
-    return {"cluster_steps": 0, "lives": [], "merge_jumps": [],
-            "split_jumps": [], "triplets_seen": 0, "triplets_live": 0,
+    return {"cluster_steps": 0,
+            **{k: [] for k in SAMPLED_STATS}, **{k + "_n": 0 for k in SAMPLED_STATS},
+            **{k + "_max": 0.0 for k in SAMPLED_STATS},
+            "triplets_seen": 0, "triplets_live": 0,
             "triplets_refused": 0, "triplets_mixed": 0, "larger_seen": 0,
             **{"refused_" + k: 0 for k in REFUSAL_REASONS},
             **{"split_" + k: 0 for k in REFUSAL_REASONS}}
@@ -640,10 +668,10 @@ class LiquidClusters:
             # cluster split in its merge step) -> its bridges' forces now
             was = np.isfinite(gone["forces"]).all(axis=(1, 2)) & ~new[which]
             if was.any():
-                self.stats["split_jumps"] += _jumps(
+                _record(self.stats, "split_jumps", _jumps(
                     gone["forces"][was], _bridge_grain_forces(
                         model, geom, gone["grains"][was], gone["members"][was]),
-                    model.radii[gone["grains"][was]].min(axis=1), self.gamma)
+                    model.radii[gone["grains"][was]].min(axis=1), self.gamma))
             # the surviving clusters' bridges kept their volumes and gaps: the update
             # cannot have ruptured them
             keep = ok & ~energy
@@ -662,9 +690,9 @@ class LiquidClusters:
             fresh = self.born == step
             fresh[:self.n - merged_from.shape[0]] = False
             if fresh.any():
-                self.stats["merge_jumps"] += _jumps(
+                _record(self.stats, "merge_jumps", _jumps(
                     merged_from, F[fresh], model.radii[self.grains[fresh]].min(axis=1),
-                    self.gamma)
+                    self.gamma))
             self.last_forces = F
         self.stats["cluster_steps"] += self.n
         self.last = {"status": res["status"], "f": res["f"], "gaps": res["gaps"]}
@@ -770,7 +798,7 @@ class LiquidClusters:
     # ----------------------------------------------------------------- split
     def _remove(self, mask):
         keep = ~np.asarray(mask, bool)
-        self.stats["lives"] += (self._now - self.born[~keep]).tolist()
+        _record(self.stats, "lives", (self._now - self.born[~keep]).tolist())
         self.grains, self.members = self.grains[keep], self.members[keep]
         self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
             self.approx[keep]
@@ -884,17 +912,24 @@ class LiquidClusters:
         grains or more met at the checks."""
         st = self.stats
 
-        def dist(x):
+        def dist(x, n=None, top=None):
             x = np.asarray(x, float)
             if not x.size:
                 return {"n": 0}
-            return {"n": int(x.size), "median": float(np.median(x)),
-                    "p90": float(np.percentile(x, 90)), "max": float(x.max())}
+            out = {"n": int(x.size if n is None else n), "median": float(np.median(x)),
+                   "p90": float(np.percentile(x, 90)),
+                   "max": float(x.max() if top is None else top)}
+            if out["n"] > x.size:     # median and p90 of the uniform sample
+                out["sampled"] = int(x.size)
+            return out
+
+        def kept(key):
+            return dist(st[key], st[key + "_n"], st[key + "_max"])
 
         alive = (self._now - self.born).tolist()
         return {"cluster_steps": int(st["cluster_steps"]),
-                "ended_lives": dist(st["lives"]), "alive_ages": dist(alive),
-                "merge_jump": dist(st["merge_jumps"]), "split_jump": dist(st["split_jumps"]),
+                "ended_lives": kept("lives"), "alive_ages": dist(alive),
+                "merge_jump": kept("merge_jumps"), "split_jump": kept("split_jumps"),
                 **{k: int(st[k]) for k in ("triplets_seen", "triplets_live",
                                            "triplets_refused", "triplets_mixed",
                                            "larger_seen")},
@@ -942,3 +977,7 @@ class LiquidClusters:
         self.stats = _new_stats()
         self.stats.update({k: (list(v) if isinstance(self.stats.get(k), list) else v)
                            for k, v in st.get("stats", {}).items() if k in self.stats})
+        for k in SAMPLED_STATS:        # saved before the counts were kept beside them
+            if k + "_n" not in st.get("stats", {}):
+                self.stats[k + "_n"] = len(self.stats[k])
+                self.stats[k + "_max"] = max(self.stats[k], default=0.0)
