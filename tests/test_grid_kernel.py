@@ -34,3 +34,20 @@ def test_uniform_axis_locates_nodes_and_clips():
     np.testing.assert_allclose(f, [0.0, 0.5, 1.0, 2.0])
     fa = grid.FineAxis([0.0, 1.0, 3.0], 2)
     np.testing.assert_allclose(fa.nodes, [0.0, 0.5, 1.0, 2.0, 3.0])
+
+
+def test_multilinear_gather_of_all_corners_equals_corner_by_corner(monkeypatch):
+    """The multilinear kernel gathers a few points' corners at once (the DEM step's
+    clusters) and goes corner by corner for many: the two give the same numbers (the
+    same sums in the same order, to round-off), and the nodes back exactly."""
+    rng = np.random.default_rng(3)
+    vals = rng.normal(size=(5, 4, 6, 3, 7))
+    g = grid.Grid(vals, "multilinear")
+    idx = [rng.integers(0, s - 1, 40) for s in vals.shape[:-1]]
+    fr = [rng.uniform(0, 1, 40) for _ in idx]
+    together = g(idx, fr)
+    monkeypatch.setattr(grid, "GATHER_MAX", 0)
+    one_by_one = g(idx, fr)
+    np.testing.assert_allclose(together, one_by_one, rtol=1e-14, atol=1e-14)
+    zero = [np.zeros(40)] * 4
+    np.testing.assert_array_equal(g(idx, zero), vals[tuple(idx)])

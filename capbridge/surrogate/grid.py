@@ -148,6 +148,10 @@ def profile_value(rows, x):
     return rows_linear(rows, i, s - i)
 
 
+#: largest corner block (points x corners x values) that :class:`Grid` gathers at once
+GATHER_MAX = 2**21
+
+
 def corner_offsets(strides):
     """Flat offsets of the 2^k corners of a cell, ordered as :func:`corner_weights`."""
     offs = np.zeros(1, np.intp)
@@ -195,8 +199,14 @@ class Grid:
         for i, s in zip(index[1:], self.strides[1:]):
             base = base + i * s
         if self.kernel == "multilinear":
-            # corner by corner: a (n, 2^k, nvar) gather would not stay in cache
             w = corner_weights(fracs)
+            if base.size * self.offsets.size * self.nvar <= GATHER_MAX:
+                # a few points (a DEM step's clusters): one gather of all corners; the
+                # per-call cost of 2^k gathers would dominate (0.9 against 0.3 ms for
+                # 60 points, 32 corners, 54 values; same sums, in the same order)
+                block = np.take(self.flat, base[:, None] + self.offsets, axis=0)
+                return np.einsum("nc,ncv->nv", w, block)
+            # corner by corner: a (n, 2^k, nvar) gather would not stay in cache
             out = np.take(self.flat, base, axis=0) * w[:, :1]
             for c in range(1, self.offsets.size):
                 out += np.take(self.flat, base + self.offsets[c], axis=0) * w[:, c:c + 1]
