@@ -705,18 +705,27 @@ class LiquidClusters:
         bi, bj = model.bi, model.bj
         have = set(map(tuple, self.members.reshape(-1, 2)[
             self.members.reshape(-1, 2)[:, 0] >= 0].tolist()))
-        cand, funicular, triples, fun_rows = [], [], [], []
-        for c in report.clusters:
-            g = np.unique(np.concatenate([bi[c], bj[c]]))
-            if g.size >= 4:
-                funicular.append((g, float(model.vol[c].sum())))
-                fun_rows.append(c)
-            else:
-                triples.append(g)
-        if triples:
+        cand, funicular, fun_rows = [], [], []
+        T = np.empty((0, 3), np.intp)
+        if report.clusters:
+            # the grains of every cluster at once: sorted unique (cluster, grain) keys
+            sizes = np.array([c.size for c in report.clusters], np.intp)
+            label = np.repeat(np.arange(sizes.size), sizes)
+            b = np.concatenate(report.clusters)
+            key = np.unique(np.concatenate([label, label]) * model.n
+                            + np.concatenate([bi[b], bj[b]]))
+            count = np.bincount(key // model.n, minlength=sizes.size)
+            start = np.cumsum(count) - count
+            grain = key % model.n
+            three = np.flatnonzero(count == 3)
+            T = grain[start[three, None] + np.arange(3)]
+            vol = np.bincount(label, weights=model.vol[b], minlength=sizes.size)
+            for c in np.flatnonzero(count >= 4):
+                funicular.append((grain[start[c]:start[c] + count[c]], float(vol[c])))
+                fun_rows.append(report.clusters[c])
+        if T.size:
             # every bridge among the three grains joins (a closed triangle): the rows of
             # the three pairs of each triple, in one search
-            T = np.array(triples, np.intp)
             rows = self._rows(model, np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]],
                                               1).reshape(-1, 2)).reshape(-1, 3)
             mixed = np.ptp(model.theta[T], axis=1) > 0
