@@ -626,8 +626,7 @@ class LiquidClusters:
         ruptured = 0
         self._now = step
         if self.n:
-            self._drop_lost(model)
-            self._absorb(model)
+            self._follow_bridges(model)
         merged0 = self.events["merged"]
         if report is not None and report.n_triplets:
             self._merge(model, pos, report, step)
@@ -777,17 +776,25 @@ class LiquidClusters:
             self.events["merged"] += 1
             self.events["approximate"] += int(approx)
 
-    def _absorb(self, model):
-        """A bridge that formed between two grains of a live cluster (a gap closed
-        after the merge) is part of the coalesced body: it joins the cluster's members
-        and its volume the cluster's liquid, so its doublet force is not added to the
-        cluster's forces (the liquid would be counted twice)."""
+    def _follow_bridges(self, model):
+        """The live clusters against the model's bridges, from one search of the three
+        grain pairs of each cluster: a cluster whose member bridge is gone (doublet
+        rupture, erased grain) is dissolved; a bridge that formed between two grains of
+        a live cluster (a gap closed after the merge) is part of the coalesced body: it
+        joins the cluster's members and its volume the cluster's liquid, so its
+        doublet force is not added to the cluster's forces (the liquid would be
+        counted twice)."""
         T = self.grains
-        pairs = np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]], 1)
+        pairs = np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]], 1)      # (k, 3, 2)
         rows = self._rows(model, pairs.reshape(-1, 2)).reshape(-1, 3)
-        have = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
-        new = (rows >= 0) & ~(rows[:, :, None] == have[:, None, :]).any(axis=2)
-        for c, m in np.argwhere(new):
+        mem = np.sort(self.members, axis=-1)                    # -1 padding stays -1
+        member = (mem[:, None, :, :] == pairs[:, :, None, :]).all(-1).any(-1)   # (k, 3)
+        lost = (member & (rows < 0)).any(axis=1)
+        if lost.any():
+            self.events["dissolved"] += int(lost.sum())
+            self._remove(lost)
+            rows, member = rows[~lost], member[~lost]
+        for c, m in np.argwhere((rows >= 0) & ~member):
             b = rows[c, m]
             slot = int(np.flatnonzero(self.members[c, :, 0] < 0)[0])
             self.members[c, slot] = (model.bi[b], model.bj[b])
@@ -812,14 +819,6 @@ class LiquidClusters:
         self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
             self.approx[keep]
         self.last_forces = self.last_forces[keep]
-
-    def _drop_lost(self, model):
-        """Clusters whose bridge is gone (doublet rupture, erased grain): dissolved."""
-        rows = self._rows(model, self.members.reshape(-1, 2)).reshape(-1, 3)
-        lost = ((rows < 0) & (self.members[..., 0] >= 0)).any(axis=1)
-        if lost.any():
-            self.events["dissolved"] += int(lost.sum())
-            self._remove(lost)
 
     def _split(self, model, pos, which):
         """Split clusters ``which`` into their bridges at equal pressure (module
