@@ -55,6 +55,10 @@ VOLUMES = {"tetrahedron": (0.4, 0.8), "rhombus": (0.5, 1.0), "chain": (0.8, 1.6)
            "square": (0.6, 1.2)}
 THETAS = (0.0, 30.0)
 
+#: grains that the configuration's symmetries map onto each other (equal |F_i|)
+SYMMETRIC = {"tetrahedron": [[0, 1, 2, 3]], "rhombus": [[0, 1], [2, 3]],
+             "chain": [[0, 3], [1, 2]], "square": [[0, 1, 2, 3]]}
+
 
 def run_case(name, centres, V, theta, max_refine):
     t0 = time.process_time()
@@ -85,6 +89,22 @@ def row(c):
             f"{'yes' if c['pairs_determined'] else 'no'} | {c['cpu_s']:.0f} |")
 
 
+def summary(cases):
+    """What the table shows, computed: answered cases, the largest force sum, the
+    largest relative spread of |F_i| over symmetric grains, the reasons of the others."""
+    done = [c for c in cases if c["forces"] is not None]
+    worst_sum = max((np.abs(np.sum(c["forces"], axis=0)).max() for c in done), default=0.0)
+    spread = 0.0
+    for c in done:
+        mag = np.linalg.norm(np.asarray(c["forces"]), axis=1)
+        for group in SYMMETRIC[c["name"]]:
+            spread = max(spread, np.ptp(mag[group]) / mag[group].max())
+    reasons = sorted({f"{c['name']}: {c['reason']}" for c in cases if c["forces"] is None})
+    return (f"{len(done)} of {len(cases)} answered.  Every answered cluster's forces sum to "
+            f"<= {worst_sum:.1e}; |F_i| of symmetric grains agree to {spread:.1e} "
+            "(relative).  Not answered: " + ("; ".join(reasons) if reasons else "none") + ".")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -111,7 +131,9 @@ def main(argv=None):
         "four forces (zero for an isolated body); error: the largest force error estimate "
         "(Richardson over the levels).", "",
         "| cluster | V* | θ° | status | max \\|F_i\\| | min \\|F_i\\| | \\|sum\\| | error "
-        "| P* | pairs determined | CPU s |", "|" + "---|" * 11] + rows) + "\n"
+        "| P* | pairs determined | CPU s |", "|" + "---|" * 11] + rows
+        + ["", summary([cache[f"{n}|V={V:g}|theta={t:g}|level={a.max_refine}"]
+                        for n, _, V, t in cases])]) + "\n"
     print(text)
     if a.write:
         write_section(SECTION, text)

@@ -390,3 +390,28 @@ def test_coalesced_starting_body_with_near_touching_grains():
                       ((0.03068134, 0.3706652, 0.2087285), 0.58515)):
         mp = mesh_problem(make_problem(triplet_centres(*d), 1.0, 30.0, volume, "coalesced"))
         assert len(mp.problem.bodies) == 1 and len(mp.contact_constraints) == 3
+
+
+def test_two_triangles_sharing_an_edge_get_rings_reaching_their_neighbours():
+    """The rhombus (two triangles of unit grains sharing the edge 0-1, gaps 0.05): the
+    grains 0 and 1 do not face the centroid, so no hull with every pole at it is valid;
+    the rings reaching each grain's neighbours are (every ring a face of the hull, each
+    enclosing its grain's contacts), at the target volume where one is reachable.  A
+    straight chain cannot be one body without engulfing its middle grains: one clear
+    reason."""
+    D = 2.05
+    h = D * np.sqrt(3) / 2
+    rhombus = np.array([[0.0, 0, 0], [D, 0, 0], [D / 2, h, 0], [D / 2, -h, 0]])
+    grains, R = [0, 1, 2, 3], np.ones(4)
+    with pytest.raises(ValueError):
+        geometry.hull_body(geometry.body_rings(grains, rhombus, R, np.radians(30.0), 8))
+    body = geometry.starting_body(grains, rhombus, R, 2.0)
+    assert geometry.mesh_volume(body, rhombus, R) == pytest.approx(2.0, rel=1e-6)
+    for ring in body.rings:
+        for j in grains:
+            d = rhombus[j] - rhombus[ring.grain]
+            if j != ring.grain and np.linalg.norm(d) < 2.1:      # a contact of the grain
+                assert np.arccos(geometry.unit(d) @ ring.axis) < ring.beta
+    chain = np.array([[0.0, 0, 0], [D, 0, 0], [2 * D, 0, 0], [3 * D, 0, 0]])
+    with pytest.raises(ValueError, match="opposite sides: the body would engulf it"):
+        geometry.starting_body(grains, chain, R, 1.0)

@@ -233,3 +233,25 @@ def test_cli_without_a_result_exits_3_with_nulls(tmp_path, capsys, monkeypatch):
     assert code == 3 and out["status"] == "not_converged" and out["reason"] == "neck pinched"
     assert out["forces"] is None and out["pair_forces"] is None and out["shape"] is None
     assert not out["pair_forces_determined"] and "no surface written" in cap.err
+
+
+@pytest.mark.evolver
+def test_rhombus_forces_have_its_mirror_symmetries(evolver):
+    """Two triangles sharing an edge (a starting body with rings reaching the
+    neighbours): the forces have the rhombus' two mirror planes (grains 0 and 1 pulled
+    towards each other along x, grains 2 and 3 along y) and sum to zero, within the
+    result's own error estimate."""
+    D = 2.05
+    h = D * np.sqrt(3) / 2
+    rhombus = np.array([[0.0, 0, 0], [D, 0, 0], [D / 2, h, 0], [D / 2, -h, 0]])
+    res = solve_cluster(rhombus, 1.0, 1.0, THETA, max_refine=2)
+    assert res["status"] in HAS_RESULT
+    F, err = np.asarray(res["forces"]), float(np.max(res["force_error"]))
+    tol = max(err, 1e-6)
+    assert F[0, 0] > 0.5 and F[2, 1] < -0.5             # attraction into the rhombus
+    np.testing.assert_allclose(F[0], -F[1], atol=tol)
+    np.testing.assert_allclose(F[2], -F[3], atol=tol)
+    np.testing.assert_allclose(F[:, 2], 0.0, atol=tol)  # the plane of the centres
+    np.testing.assert_allclose(F[[0, 1], 1], 0.0, atol=tol)
+    np.testing.assert_allclose(F[[2, 3], 0], 0.0, atol=tol)
+    np.testing.assert_allclose(F.sum(0), 0.0, atol=tol)

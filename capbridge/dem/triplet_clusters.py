@@ -327,7 +327,7 @@ def _refusal_reasons(res, ok):
     st, asked, v = res["status"][~ok], res["asked"][~ok], res["v"][~ok]
     has = status_in(st, HAS_RESULT)
     out_v = asked & ~has & np.isfinite(v) & status_in(st, (Status.OUT_OF_RANGE,
-                                                         Status.EXTRAPOLATED))
+                                                            Status.EXTRAPOLATED))
     return {"gaps_or_angle": int((~asked).sum()), "volume": int(out_v.sum()),
             "no_result": int((asked & ~has & ~out_v).sum()),
             "separated_lower": int((asked & has).sum())}
@@ -464,7 +464,9 @@ class LiquidClusters:
         """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
 
         Gaps below zero (grains in contact overlap in a DEM) are taken as contact, as
-        the doublet bridges do.  Returns a dict: ``f`` (k, 3) pair forces [N] in the
+        the doublet bridges do, down to :data:`~capbridge.validation.CONTACT_OVERLAP_MAX`
+        of the pair's smaller radius; a cluster with a deeper overlap is not looked up
+        (OUT_OF_RANGE, not ``asked``).  Returns a dict: ``f`` (k, 3) pair forces [N] in the
         order (0,1), (0,2), (1,2) of each triple (attraction > 0), ``status`` (k,),
         ``lower`` (k,) lower-energy-state codes, ``u`` (k, 3, 3) unit vectors of the
         pairs (actual centre lines), ``gaps`` (k, 3) [m].  With ``gravity`` (and

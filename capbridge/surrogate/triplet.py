@@ -688,7 +688,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
             self.interpolation_error_["max_rel_error"]
         res["force_error"] = self.cell_force_error_.ravel()[cidx] + interp * fmax
         nores = ~status_in(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE,
-                                  Status.EXTRAPOLATED))
+                                    Status.EXTRAPOLATED))
         for name in GRID_VARIABLES + ("force_error",):
             res[name] = np.where(nores, np.nan, res[name])
         lower = np.full(V.size, _UNKNOWN, np.int8)

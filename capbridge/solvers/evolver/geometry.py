@@ -261,32 +261,66 @@ def body_rings(grains, centres, radii, beta, n):
     return rings
 
 
-def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)):
-    """Hull body with circular rings whose enclosed liquid volume is close to ``volume``.
+def neighbour_rings(grains, centres, radii, extra, n, near=0.5, beta_max=np.radians(85.0)):
+    """Contact rings that reach each grain's neighbours in the body, for clusters whose
+    grains do not all face the centroid (two triangles sharing an edge, a bent chain).
 
-    The half-angle is found by bisection; if even ``beta_max`` holds too little liquid
-    the largest valid hull is returned (Evolver then inflates it to the target volume).
+    A grain's neighbours are the body's grains within a surface gap of ``near`` times
+    the pair's smaller radius.  Its pole points along the mean direction to them and its
+    half-angle is the widest angle from that pole to a neighbour plus ``extra`` [rad]
+    (at most ``beta_max``), so that the ring encloses every contact of the grain.
+
+    Raises ValueError for a grain without a neighbour, or whose neighbours lie on
+    opposite sides (a straight chain: the body would engulf the grain, which a ring
+    cannot describe).
     """
     centres = np.asarray(centres, float)
     radii = np.asarray(radii, float)
+    rings = []
+    for i in grains:
+        dirs = []
+        for j in grains:
+            if j == i:
+                continue
+            d = centres[j] - centres[i]
+            if np.linalg.norm(d) - radii[i] - radii[j] <= near * min(radii[i], radii[j]):
+                dirs.append(unit(d))
+        if not dirs:
+            raise ValueError(f"grain {i} has no neighbour in the body within a gap of "
+                             f"{near:g} x its radius")
+        total = np.sum(dirs, axis=0)
+        if np.linalg.norm(total) < 0.2 * len(dirs):
+            raise ValueError(f"grain {i}'s neighbours in the body lie on opposite sides: "
+                             "the body would engulf it")
+        axis = unit(total)
+        spread = max(float(np.arccos(np.clip(d @ axis, -1.0, 1.0))) for d in dirs)
+        beta = min(spread + extra, beta_max)
+        rings.append(Ring(grain=i, axis=axis, beta=beta,
+                          points=ring_points(centres[i], radii[i], axis, beta, n)))
+    return rings
 
-    def vol(beta):
+
+def _volume_matched(make, lo, hi, volume, centres, radii):
+    """The hull body of ``make(x)`` whose liquid volume is closest to ``volume`` for x
+    in [lo, hi] (bisection; x grows the rings), or ValueError if no x gives a valid
+    hull.  If even the largest valid hull holds too little liquid, that hull is
+    returned (Evolver then inflates it to the target volume); if the smallest holds
+    too much, the smallest."""
+    def vol(x):
         try:
-            return mesh_volume(hull_body(body_rings(grains, centres, radii, beta, n)),
-                               centres, radii)
+            return mesh_volume(hull_body(make(x)), centres, radii)
         except ValueError:
             return np.nan
 
-    lo, hi = np.radians(3.0), beta_max
     # shrink hi until the hull is valid
     while not np.isfinite(vol(hi)) and hi > lo:
         hi *= 0.9
     if not np.isfinite(vol(lo)) or hi <= lo:
-        raise ValueError(f"no valid starting body for grains {grains}")
+        raise ValueError("no valid hull")
     if vol(hi) < volume:
-        beta = hi
+        x = hi
     elif vol(lo) > volume:
-        beta = lo
+        x = lo
     else:
         for _ in range(50):
             mid = 0.5 * (lo + hi)
@@ -295,10 +329,40 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
                 hi = mid
             else:
                 lo = mid
-        # lo is a valid hull (validity is not monotonic in beta: near-touching grains
-        # give invalid hulls between valid ones, and the midpoint was never tested)
-        beta = lo
-    return hull_body(body_rings(grains, centres, radii, beta, n))
+        # lo is a valid hull (validity is not monotonic: near-touching grains give
+        # invalid hulls between valid ones, and the midpoint was never tested)
+        x = lo
+    return hull_body(make(x))
+
+
+def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)):
+    """Hull body with circular rings whose enclosed liquid volume is close to ``volume``.
+
+    First choice: every pole points at the centroid of the body's grain centres, one
+    half-angle for all, found by bisection (:func:`body_rings`).  Clusters of three
+    grains or more whose rings are then not all faces of the hull (a grain that does
+    not face the centroid, as in two triangles sharing an edge) get rings reaching their
+    neighbours instead (:func:`neighbour_rings`, the extra half-angle found by
+    bisection).  If even the largest valid hull holds too little liquid it is returned
+    (Evolver then inflates it to the target volume); ValueError if neither gives a
+    valid hull.
+    """
+    centres = np.asarray(centres, float)
+    radii = np.asarray(radii, float)
+    try:
+        return _volume_matched(lambda b: body_rings(grains, centres, radii, b, n),
+                               np.radians(3.0), beta_max, volume, centres, radii)
+    except ValueError:
+        why = "no valid hull with the poles at the centroid"
+    if len(grains) >= 3:
+        try:
+            neighbour_rings(grains, centres, radii, 0.0, n)     # its own reasons first
+            return _volume_matched(lambda e: neighbour_rings(grains, centres, radii, e, n),
+                                   np.radians(2.0), np.radians(40.0), volume, centres,
+                                   radii)
+        except ValueError as exc:
+            why += f"; with rings reaching the neighbours: {exc}"
+    raise ValueError(f"no valid starting body for grains {grains} ({why})")
 
 
 def segment_volume(radius, beta):
