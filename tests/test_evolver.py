@@ -415,3 +415,27 @@ def test_two_triangles_sharing_an_edge_get_rings_reaching_their_neighbours():
     chain = np.array([[0.0, 0, 0], [D, 0, 0], [2 * D, 0, 0], [3 * D, 0, 0]])
     with pytest.raises(ValueError, match="opposite sides: the body would engulf it"):
         geometry.starting_body(grains, chain, R, 1.0)
+
+
+def test_a_bent_chain_gets_a_body_star_shaped_about_its_centroid():
+    """A chain of four unit grains bent at right angles (0-1-2-3, gaps 0.05): no convex
+    hull of rings is valid (the middle grains' rings face the inside of the bend); the
+    surface star-shaped about the grains' centroid is, at the target volume, every
+    facet facing away from the centroid and every ring enclosing its grain's contacts."""
+    D = 2.05
+    chain = np.array([[0.0, 0, 0], [D, 0, 0], [D, D, 0], [2 * D, D, 0]])
+    grains, R = [0, 1, 2, 3], np.ones(4)
+    for e in np.radians([2.0, 10.0, 20.0, 30.0]):
+        with pytest.raises(ValueError):
+            geometry.hull_body(geometry.neighbour_rings(grains, chain, R, e, 8))
+    body = geometry.starting_body(grains, chain, R, 1.0)
+    assert geometry.mesh_volume(body, chain, R) == pytest.approx(1.0, rel=1e-6)
+    middle = chain.mean(axis=0)
+    v = body.vertices[body.triangles]
+    normals = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    assert np.all(np.einsum("ij,ij->i", normals, v.mean(axis=1) - middle) > 0)
+    for ring in body.rings:
+        for j in grains:
+            d = chain[j] - chain[ring.grain]
+            if j != ring.grain and np.linalg.norm(d) < 2.1:
+                assert np.arccos(geometry.unit(d) @ ring.axis) < ring.beta

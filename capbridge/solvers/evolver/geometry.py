@@ -181,8 +181,13 @@ def ring_points(centre, radius, axis, beta, n, phase=0.0):
                         + np.sin(beta) * (np.cos(psi)[:, None] * e1 + np.sin(psi)[:, None] * e2)))
 
 
-def hull_body(rings):
+def hull_body(rings, centre=None):
     """Free surface spanning the given rings: their convex hull minus the ring disks.
+
+    With ``centre``, a body that is only star-shaped about that point: the facets are
+    those of the convex hull of the ring points' *directions* from ``centre`` (points on
+    a sphere: all of them are vertices), placed at the points themselves; every facet
+    must then face away from ``centre`` (else ValueError: not star-shaped about it).
 
     Raises ValueError if a ring is not a face of the hull (rings overlapping or hidden).
     """
@@ -190,21 +195,31 @@ def hull_body(rings):
 
     pts = np.concatenate([r.points for r in rings])
     owner = np.concatenate([np.full(len(r.points), i) for i, r in enumerate(rings)])
-    hull = ConvexHull(pts)
+    if centre is None:
+        shape, origin = pts, pts.mean(axis=0)
+    else:
+        origin = np.asarray(centre, float)
+        rel = pts - origin
+        shape = rel / np.linalg.norm(rel, axis=1)[:, None]
+    hull = ConvexHull(shape)
     if len(set(hull.vertices.tolist())) != len(pts):
         raise ValueError("some contact-ring points are not on the convex hull")
+    inside = shape.mean(axis=0)
     tris = []
     n_disk = np.zeros(len(rings), int)
-    centroid = pts.mean(axis=0)
     for simplex in hull.simplices:
         o = owner[simplex]
         if o[0] == o[1] == o[2]:
             n_disk[o[0]] += 1
             continue
-        a, b, c = pts[simplex]
+        a, b, c = shape[simplex]
         nrm = np.cross(b - a, c - a)
-        if nrm @ (a - centroid) < 0:
+        if nrm @ (a - inside) < 0:
             simplex = simplex[[0, 2, 1]]
+        if centre is not None:
+            a, b, c = pts[simplex]
+            if np.cross(b - a, c - a) @ ((a + b + c) / 3.0 - origin) <= 0.0:
+                raise ValueError("the body is not star-shaped about the centre")
         tris.append(simplex)
     for i, r in enumerate(rings):
         if n_disk[i] != len(r.points) - 2:
@@ -300,39 +315,56 @@ def neighbour_rings(grains, centres, radii, extra, n, near=0.5, beta_max=np.radi
     return rings
 
 
-def _volume_matched(make, lo, hi, volume, centres, radii):
-    """The hull body of ``make(x)`` whose liquid volume is closest to ``volume`` for x
-    in [lo, hi] (bisection; x grows the rings), or ValueError if no x gives a valid
-    hull.  If even the largest valid hull holds too little liquid, that hull is
-    returned (Evolver then inflates it to the target volume); if the smallest holds
-    too much, the smallest."""
+def _volume_matched(make, lo, hi, volume, centres, radii, centre=None, scan=0):
+    """The hull body of ``make(x)`` (:func:`hull_body` about ``centre``) whose liquid
+    volume is closest to ``volume`` for x in [lo, hi] (x grows the rings), or ValueError
+    if no x gives a valid hull.  If even the largest valid hull holds too little liquid,
+    that hull is returned (Evolver then inflates it to the target volume); if the
+    smallest holds too much, the smallest.
+
+    Validity is not monotonic in x (near-touching grains give invalid hulls between
+    valid ones): without ``scan``, hi is shrunk until valid and lo must be valid; with
+    ``scan`` > 0, that many evenly spaced x are tried first and the bisection runs
+    between the two valid ones that bracket the volume.
+    """
     def vol(x):
         try:
-            return mesh_volume(hull_body(make(x)), centres, radii)
+            return mesh_volume(hull_body(make(x), centre), centres, radii)
         except ValueError:
             return np.nan
 
-    # shrink hi until the hull is valid
-    while not np.isfinite(vol(hi)) and hi > lo:
-        hi *= 0.9
-    if not np.isfinite(vol(lo)) or hi <= lo:
-        raise ValueError("no valid hull")
-    if vol(hi) < volume:
-        x = hi
-    elif vol(lo) > volume:
-        x = lo
+    if scan:
+        xs = np.linspace(lo, hi, scan)
+        vs = np.array([vol(x) for x in xs])
+        ok = np.isfinite(vs)
+        if not ok.any():
+            raise ValueError("no valid hull")
+        xs, vs = xs[ok], vs[ok]
+        enough = np.flatnonzero(vs >= volume)
+        if not enough.size:
+            return hull_body(make(xs[np.argmax(vs)]), centre)
+        if enough[0] == 0:
+            return hull_body(make(xs[0]), centre)
+        lo, hi = xs[enough[0] - 1], xs[enough[0]]
     else:
-        for _ in range(50):
-            mid = 0.5 * (lo + hi)
-            vm = vol(mid)
-            if not np.isfinite(vm) or vm > volume:
-                hi = mid
-            else:
-                lo = mid
-        # lo is a valid hull (validity is not monotonic: near-touching grains give
-        # invalid hulls between valid ones, and the midpoint was never tested)
-        x = lo
-    return hull_body(make(x))
+        # shrink hi until the hull is valid
+        while not np.isfinite(vol(hi)) and hi > lo:
+            hi *= 0.9
+        if not np.isfinite(vol(lo)) or hi <= lo:
+            raise ValueError("no valid hull")
+        if vol(hi) < volume:
+            return hull_body(make(hi), centre)
+        if vol(lo) > volume:
+            return hull_body(make(lo), centre)
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        vm = vol(mid)
+        if not np.isfinite(vm) or vm > volume:
+            hi = mid
+        else:
+            lo = mid
+    # lo is a valid hull (the midpoint that ended the bisection was never tested)
+    return hull_body(make(lo), centre)
 
 
 def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)):
@@ -343,7 +375,9 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
     grains or more whose rings are then not all faces of the hull (a grain that does
     not face the centroid, as in two triangles sharing an edge) get rings reaching their
     neighbours instead (:func:`neighbour_rings`, the extra half-angle found by
-    bisection).  If even the largest valid hull holds too little liquid it is returned
+    bisection), spanned by their convex hull or, for a body that wraps around its
+    grains, by a surface star-shaped about the grains' centroid (:func:`hull_body`
+    with ``centre``).  If even the largest valid hull holds too little liquid it is returned
     (Evolver then inflates it to the target volume); ValueError if neither gives a
     valid hull.
     """
@@ -359,9 +393,17 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
             neighbour_rings(grains, centres, radii, 0.0, n)     # its own reasons first
             return _volume_matched(lambda e: neighbour_rings(grains, centres, radii, e, n),
                                    np.radians(2.0), np.radians(40.0), volume, centres,
-                                   radii)
+                                   radii, scan=16)
         except ValueError as exc:
             why += f"; with rings reaching the neighbours: {exc}"
+        try:
+            # a body that wraps around its grains: star-shaped about their centroid
+            middle = centres[list(grains)].mean(axis=0)
+            return _volume_matched(
+                lambda e: neighbour_rings(grains, centres, radii, e, n), np.radians(2.0),
+                np.radians(40.0), volume, centres, radii, centre=middle, scan=16)
+        except ValueError as exc:
+            why += f"; star-shaped about the grains' centroid: {exc}"
     raise ValueError(f"no valid starting body for grains {grains} ({why})")
 
 
