@@ -367,44 +367,60 @@ def _volume_matched(make, lo, hi, volume, centres, radii, centre=None, scan=0):
     return hull_body(make(lo), centre)
 
 
+#: a starting body within this factor of the target volume is taken as it is; beyond it
+#: the next construction is tried (Evolver inflating or deflating a body several times
+#: over folds its facets)
+VOLUME_FACTOR_OK = 2.0
+
+
 def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)):
     """Hull body with circular rings whose enclosed liquid volume is close to ``volume``.
 
-    First choice: every pole points at the centroid of the body's grain centres, one
-    half-angle for all, found by bisection (:func:`body_rings`).  Clusters of three
-    grains or more whose rings are then not all faces of the hull (a grain that does
-    not face the centroid, as in two triangles sharing an edge) get rings reaching their
-    neighbours instead (:func:`neighbour_rings`, the extra half-angle found by
-    bisection), spanned by their convex hull or, for a body that wraps around its
-    grains, by a surface star-shaped about the grains' centroid (:func:`hull_body`
-    with ``centre``).  If even the largest valid hull holds too little liquid it is returned
-    (Evolver then inflates it to the target volume); ValueError if neither gives a
-    valid hull.
+    Constructions, in order, the first within :data:`VOLUME_FACTOR_OK` of ``volume``
+    taken (else the valid one nearest to it, as a ratio):
+
+    1. every pole at the centroid of the body's grain centres, one half-angle for all,
+       found by bisection (:func:`body_rings`), spanned by the convex hull;
+    2. (three grains or more) rings reaching each grain's neighbours
+       (:func:`neighbour_rings`, the extra half-angle found by a scan and bisection),
+       spanned by their convex hull (a grain that does not face the centroid, as in two
+       triangles sharing an edge);
+    3. the same rings spanned by a surface star-shaped about the grains' centroid
+       (:func:`hull_body` with ``centre``: a body that wraps around its grains).
+
+    A body that holds too little liquid even at its largest valid rings is inflated to
+    the target by Evolver.  ValueError (with each construction's reason) if none is
+    valid.
     """
     centres = np.asarray(centres, float)
     radii = np.asarray(radii, float)
-    try:
-        return _volume_matched(lambda b: body_rings(grains, centres, radii, b, n),
-                               np.radians(3.0), beta_max, volume, centres, radii)
-    except ValueError:
-        why = "no valid hull with the poles at the centroid"
+    middle = centres[list(grains)].mean(axis=0)
+    constructions = [
+        ("with the poles at the centroid",
+         lambda: _volume_matched(lambda b: body_rings(grains, centres, radii, b, n),
+                                 np.radians(3.0), beta_max, volume, centres, radii))]
     if len(grains) >= 3:
-        try:
+        def reaching(centre):
             neighbour_rings(grains, centres, radii, 0.0, n)     # its own reasons first
             return _volume_matched(lambda e: neighbour_rings(grains, centres, radii, e, n),
                                    np.radians(2.0), np.radians(40.0), volume, centres,
-                                   radii, scan=16)
-        except ValueError as exc:
-            why += f"; with rings reaching the neighbours: {exc}"
+                                   radii, centre=centre, scan=16)
+        constructions += [("with rings reaching the neighbours", lambda: reaching(None)),
+                          ("star-shaped about the grains' centroid", lambda: reaching(middle))]
+    why, found = [], []
+    for name, make in constructions:
         try:
-            # a body that wraps around its grains: star-shaped about their centroid
-            middle = centres[list(grains)].mean(axis=0)
-            return _volume_matched(
-                lambda e: neighbour_rings(grains, centres, radii, e, n), np.radians(2.0),
-                np.radians(40.0), volume, centres, radii, centre=middle, scan=16)
+            body = make()
         except ValueError as exc:
-            why += f"; star-shaped about the grains' centroid: {exc}"
-    raise ValueError(f"no valid starting body for grains {grains} ({why})")
+            why.append(f"{name}: {exc}")
+            continue
+        off = abs(np.log(mesh_volume(body, centres, radii) / volume))
+        if off <= np.log(VOLUME_FACTOR_OK):
+            return body
+        found.append((off, len(found), body))
+    if found:
+        return min(found)[2]
+    raise ValueError(f"no valid starting body for grains {grains} ({'; '.join(why)})")
 
 
 def segment_volume(radius, beta):
