@@ -186,12 +186,7 @@ def extract_main(packing, water, theta, steps, out):
     by.load_packing(O, w, utils, packing)
     cap = CapbridgeEngine(theta=theta, gamma=by.GAMMA, water_content=water,
                           coalescence_every=10, triplet_forces=True, label="clusters")
-    O.engines = [w.ForceResetter(),
-                 w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
-                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
-                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
-                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
-                 cap.pyrunner(), w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))]
+    O.engines = by.scene_engines(w, [cap.pyrunner()])
     O.dt = 0.5 * utils.PWaveTimeStep()
     O.run(steps, True)
     m, pos = cap.model, cap.positions()

@@ -70,6 +70,21 @@ def _yade_env():
     return yade, wrapper, utils
 
 
+def scene_engines(w, extra, ip2=None, law=None, factor=None):
+    """The wet packings' engine list: contacts (``ip2``/``law``, default frictional
+    Cundall-Strack; ``factor``: the Aabb enlargement and interaction detection factor
+    for Law2's capillary reach), the ``extra`` engines (capbridge's PyRunner), then
+    NewtonIntegrator (damping 0.4, gravity -9.81 m/s^2 along z)."""
+    aabb = {} if factor is None else {"aabbEnlargeFactor": factor}
+    detect = {} if factor is None else {"interactionDetectionFactor": factor}
+    return ([w.ForceResetter(),
+             w.InsertionSortCollider([w.Bo1_Sphere_Aabb(**aabb), w.Bo1_Box_Aabb()]),
+             w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(**detect), w.Ig2_Box_Sphere_ScGeom()],
+                               [w.Ip2_FrictMat_FrictMat_FrictPhys() if ip2 is None else ip2],
+                               [w.Law2_ScGeom_FrictPhys_CundallStrack() if law is None else law])]
+            + list(extra) + [w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))])
+
+
 def _deposit(O, w, utils, max_steps):
     """Dry settling under gravity in a box (the packings' common engines and stop rule:
     unbalanced force < 0.05 after 5,000 steps, or max_steps); returns the spheres."""
@@ -168,11 +183,7 @@ def run_wet_poly(variant, packing, files, steps, warmup, suction, factor):
               "capbridge10": {"refresh_every": 10}}[variant]
         cap = CapbridgeEngine(theta=THETA, gamma=GAMMA, water_content=0.01, label="bench", **kw)
         extra = [cap.pyrunner()]
-    O.engines = ([w.ForceResetter(),
-                  w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=f), w.Bo1_Box_Aabb()]),
-                  w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=f),
-                                     w.Ig2_Box_Sphere_ScGeom()], [ip2], [law])]
-                 + extra + [w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))])
+    O.engines = scene_engines(w, extra, ip2, law, factor=f)
     O.dt = 0.5 * utils.PWaveTimeStep()
     t0 = time.perf_counter()
     O.run(warmup, True)
@@ -266,11 +277,7 @@ def run_variant(variant, packing, files, steps, warmup, suction, factor):
         extra = [cap.pyrunner()]
     elif variant != "dry":
         raise SystemExit(f"unknown variant {variant}")
-    O.engines = ([w.ForceResetter(),
-                  w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=f), w.Bo1_Box_Aabb()]),
-                  w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=f),
-                                     w.Ig2_Box_Sphere_ScGeom()], [ip2], [law])]
-                 + extra + [w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))])
+    O.engines = scene_engines(w, extra, ip2, law, factor=f)
     O.dt = 0.5 * utils.PWaveTimeStep()
     O.run(warmup, True)
     if cap is not None:

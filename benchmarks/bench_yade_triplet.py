@@ -61,12 +61,7 @@ def run_capbridge(variant, packing, steps, warmup, water_content, table, every, 
     cap = CapbridgeEngine(theta=theta, gamma=by.GAMMA, water_content=water_content,
                           coalescence_every=every, triplet_forces=(variant == "on"),
                           triplet_table=table, label="bench")
-    O.engines = [w.ForceResetter(),
-                 w.InsertionSortCollider([w.Bo1_Sphere_Aabb(), w.Bo1_Box_Aabb()]),
-                 w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(), w.Ig2_Box_Sphere_ScGeom()],
-                                   [w.Ip2_FrictMat_FrictMat_FrictPhys()],
-                                   [w.Law2_ScGeom_FrictPhys_CundallStrack()]),
-                 cap.pyrunner(), w.NewtonIntegrator(damping=0.4, gravity=(0, 0, -9.81))]
+    O.engines = by.scene_engines(w, [cap.pyrunner()])
     O.dt = 0.5 * utils.PWaveTimeStep()
     t0 = time.perf_counter()
     O.run(warmup, True)
