@@ -33,9 +33,13 @@ class Status(enum.IntEnum):
 HAS_RESULT = (Status.CONVERGED, Status.ABOVE_TOLERANCE, Status.APPROXIMATE)
 
 
+#: one past the largest status code
+_N_CODES = max(Status) + 1
+
+
 @lru_cache(maxsize=None)
 def _mask(codes):
-    table = np.zeros(max(Status) + 1, bool)
+    table = np.zeros(_N_CODES, bool)
     table[list(codes)] = True
     table.flags.writeable = False
     return table
@@ -50,8 +54,14 @@ def status_in(status, codes):
 
     >>> status_in([0, 5, 9], HAS_RESULT).tolist()
     [True, False, True]
+    >>> status_in([-1, 12], HAS_RESULT).tolist()
+    [False, False]
     """
-    return _mask(tuple(sorted({int(c) for c in codes})))[np.asarray(status, np.intp)]
+    codes = tuple(sorted({int(c) for c in codes}))
+    idx = np.asarray(status).astype(np.intp)
+    if idx.size and not 0 <= idx.min() <= idx.max() < _N_CODES:
+        return np.isin(status, codes)          # not a status code: matches none of them
+    return _mask(codes)[idx]
 
 
 def cf_flag_attributes():
