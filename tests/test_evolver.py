@@ -454,3 +454,18 @@ def test_starting_body_nearest_the_target_volume_among_the_constructions():
     assert geometry.mesh_volume(first, C, R) < 0.2 * V
     body = geometry.starting_body(grains, C, R, V)
     assert V / 2 <= geometry.mesh_volume(body, C, R) <= 2 * V
+
+
+def test_triplet_starting_bodies_stay_the_centroid_hull():
+    """Doublets and triplets (the tables' bodies) keep the centroid hull even where its
+    volume is far from the target (a committed sweep resumes with the starting bodies it
+    began with): a triplet at 5 V_coal gets it, whatever the other constructions give."""
+    from capbridge.solvers.triplet import triplet_geometry
+
+    c, R = triplet_geometry(0.0, 0.0, 0.4).centres, np.ones(3)
+    V = 3.0
+    first = geometry._volume_matched(lambda b: geometry.body_rings([0, 1, 2], c, R, b, 8),
+                                     np.radians(3.0), np.radians(80.0), V, c, R)
+    assert not 0.5 * V <= geometry.mesh_volume(first, c, R) <= 2 * V   # far from it
+    body = geometry.starting_body([0, 1, 2], c, R, V)
+    np.testing.assert_array_equal(body.vertices, first.vertices)

@@ -381,7 +381,7 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
 
     1. every pole at the centroid of the body's grain centres, one half-angle for all,
        found by bisection (:func:`body_rings`), spanned by the convex hull;
-    2. (three grains or more) rings reaching each grain's neighbours
+    2. (four grains or more) rings reaching each grain's neighbours
        (:func:`neighbour_rings`, the extra half-angle found by a scan and bisection),
        spanned by their convex hull (a grain that does not face the centroid, as in two
        triangles sharing an edge);
@@ -399,7 +399,9 @@ def starting_body(grains, centres, radii, volume, n=8, beta_max=np.radians(80.0)
         ("with the poles at the centroid",
          lambda: _volume_matched(lambda b: body_rings(grains, centres, radii, b, n),
                                  np.radians(3.0), beta_max, volume, centres, radii))]
-    if len(grains) >= 3:
+    if len(grains) >= 4:
+        # clusters only: doublets and triplets (the tables' bodies) keep the centroid
+        # hull, so that a committed sweep resumes with the starting bodies it began with
         def reaching(centre):
             neighbour_rings(grains, centres, radii, 0.0, n)     # its own reasons first
             return _volume_matched(lambda e: neighbour_rings(grains, centres, radii, e, n),
