@@ -51,6 +51,7 @@ bench: setup
 	$(PY) benchmarks/bench_yade.py
 	$(PY) benchmarks/bench_pressure_base.py
 	$(PY) benchmarks/bench_triplet_packings.py --label current
+	$(PY) benchmarks/bench_triplet_lookup.py
 
 # Surface Evolver: the paper's protocol against ours, and the 200-triplet stress run
 # (hours; resumable).  Results: benchmarks/evolver_out/, summarised in RESULTS.md.
@@ -60,6 +61,7 @@ bench-evolver: setup
 	$(PY) examples/evolver_convergence/run_convergence.py
 	$(PY) benchmarks/bench_evolver.py report
 	$(PY) benchmarks/bench_clusters.py
+	$(PY) benchmarks/bench_clusters.py --packing
 
 # The triplet study of Miot et al. (2021): examples/miot2021 (resumable after a kill).
 reproduce: setup
