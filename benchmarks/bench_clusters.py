@@ -95,7 +95,7 @@ def run_case(name, centres, V, theta, max_refine):
 def row(c):
     if c["forces"] is None:
         return (f"| {c['name']} | {c['V']:g} | {c['theta']:g} | {c['status']} | - | - | - "
-                f"| - | - | {c['cpu_s']:.0f} |")
+                f"| - | - | - | {c['cpu_s']:.0f} |")
     F = np.asarray(c["forces"])
     err = np.asarray(c["force_error"]) if c["force_error"] is not None else np.full(1, np.nan)
     mag = np.linalg.norm(F, axis=1)
