@@ -502,3 +502,58 @@ def test_life_distributions_stay_bounded_and_survive_a_restart(monkeypatch):
     legacy = LiquidClusters(GAMMA)
     legacy.set_state(old)
     assert legacy.stats["lives_n"] == 50 and legacy.stats["lives_max"] == max(cl.stats["lives"])
+
+
+def test_forces_between_lookups_are_the_expansion_of_the_last_one(sur, doublets):
+    """Grain 0 drifts away from grain 2 by 2e-4 r per step: the cluster is looked up
+    (one predict_vectors call) only when a lookup gap has moved by more than REUSE_GAP
+    since the last lookup; in between its forces are the first-order expansion, within
+    1e-4 of max|F| of a lookup at every step; at a lookup they are the lookup's (1e-12).
+    The surrogate is multilinear between the nodes of its refined grid, so the
+    expansion, whose slopes are secants over REUSE_GAP, misses the slopes' jumps
+    where that secant or the drift crosses a refined node (of the gaps, or of v =
+    V/V*_coal, which moves with them): an error up to ~REUSE_GAP x the jump (measured
+    here: 8.0e-5 of max|F| at the largest drift, 4.5e-2 F* per unit gap).  A restart in between continues
+    with the same expansion: the same forces to the last bit."""
+    from capbridge.dem.triplet_clusters import REUSE_GAP
+
+    m, cl, pos, V, _, _ = _merged(sur, doublets)
+    calls = []
+    real = sur.predict_vectors
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    class Counted:                      # the surrogate, its calls counted
+        predict_vectors = staticmethod(counted)
+
+        def __getattr__(self, name):
+            return getattr(sur, name)
+
+    cl._sur = counted_sur = Counted()
+    u = (pos[0] - pos[2]) / np.linalg.norm(pos[0] - pos[2])
+    step_gap, n_steps = 2e-4, 25
+    errors, looked, twin = [], [], None
+    for s in range(1, n_steps + 1):
+        pos = pos.copy()
+        pos[0] += u * step_gap * R
+        n0 = len(calls)
+        out = cl.step(m, pos, m.update(pos, form=False), None, step=s)
+        looked.append(len(calls) > n0)
+        ref = real(pos / R, V / R**3, 0.0)["forces"] * force_scale(R, GAMMA)
+        errors.append(np.abs(out["forces"] - ref).max() / np.abs(ref).max())
+        if looked[-1]:
+            assert errors[-1] < 1e-12
+        if s == 12:                      # a restart from this step's state
+            twin = LiquidClusters(GAMMA, surrogate=counted_sur)
+            twin.set_state(cl.get_state())
+        elif twin is not None:
+            out2 = twin.step(m, pos, m.update(pos, form=False), None, step=s)
+            np.testing.assert_array_equal(out2["forces"], out["forces"])
+    assert cl.n == 1 and cl.events["split_geometry"] == 0
+    # lookups at the merge step's expansion, then each time the drift passes REUSE_GAP
+    expected = int(n_steps * step_gap / REUSE_GAP)
+    assert expected - 1 <= sum(looked) <= expected + 2
+    assert max(errors) < 1e-4
+    assert max(errors) > 1e-9          # the expansion is not the lookup (test is live)

@@ -17,10 +17,16 @@ coalesced body there (status with a result) and does not say the separated state
 the lower energy.  From then on the three grains get the table's pair forces
 (:meth:`~capbridge.surrogate.triplet.TripletSurrogate.predict_vectors` at the three
 current centres, lengths / the smallest radius, forces * 2 pi gamma r) *instead of* the doublet forces of those
-bridges, at every step.
+bridges, at every step.  Between lookups the pair forces are the first-order expansion
+of the last lookup in the cluster's gaps (:attr:`LiquidClusters.expansion`, slopes from
+the same call); a cluster is looked up again when a gap has moved by more than
+:data:`REUSE_GAP` (2e-3 r), when its expanded v = V*/V*_coal comes near the table's v
+range, or when its liquid or the gravity changed.  In a 1,000-grain packing this looks
+up 2-4 % of the cluster-steps, with grain forces within 2e-4 (p99) of a lookup at
+every step (``benchmarks/bench_triplet_expansion.py``).
 
-**Split.**  At every step the cluster is looked up again; it splits back into separate
-bridges when
+**Split.**  At every step the cluster's answer (above) is checked; it splits back
+into separate bridges when
 
 * the geometry or volume leaves the coalesced body's domain: gaps or angle outside the
   table, v = V*/V*_coal outside the table (no extrapolated number is used), or a
@@ -110,6 +116,22 @@ EVENTS = {
 }
 
 _SEPARATED = 1                # LOWER_ENERGY_STATES code of "separated"
+_PAIRS = ((0, 1), (0, 2), (1, 2))
+#: between lookups a cluster's pair forces are expanded to first order in its lookup
+#: gaps (gaps / its smallest radius, contacts at 0) about those of its last lookup,
+#: while no gap moved by more than this; the slopes are forward differences over it.
+#: Clusters in a packing move ~3.5e-5 r per step: a lookup every ~50 steps, forces
+#: within ~1e-4 of a lookup at every step (the surrogate is multilinear between refined
+#: nodes: the slopes are secants; benchmarks/RESULTS.md, "per-step cost"); the
+#: statuses, the domain's edges and the energy criterion are decided at this resolution
+REUSE_GAP = 2e-3
+#: ... and while its expanded v = V*/V*_coal stays this far (relative) inside the
+#: table's v range
+V_MARGIN = 1e-4
+#: ``expansion["toward"]`` of a gap whose moved triangles have no result either way
+PINNED = 2
+#: why a cluster's gravity part is not the table's response (codes 1, 2, 3; 0: it is)
+GRAVITY_FALLBACKS = ("table_has_no_response", "bond_above_max", "no_response_number")
 #: how a split cluster shares its liquid (LiquidClusters split_solver)
 SPLIT_SOLVERS = ("table", "exact", "merge_volumes")
 
@@ -333,6 +355,25 @@ def _refusal_reasons(res, ok):
             "separated_lower": int((asked & has).sum())}
 
 
+def _no_expansion(n):
+    """Rows of :attr:`LiquidClusters.expansion` for ``n`` clusters without one (NaN
+    gaps: the next step looks them up)."""
+    return {"gaps": np.full((n, 3), np.nan), "f": np.full((n, 3), np.nan),
+            "slope": np.full((n, 3, 3), np.nan), "gravity": np.full((n, 3, 3), np.nan),
+            "vc": np.full(n, np.nan), "vc_slope": np.full((n, 3), np.nan),
+            "toward": np.zeros((n, 3), np.int8),
+            "status": np.full(n, Status.OUT_OF_RANGE, np.int8),
+            "lower": np.full(n, 3, np.int8), "v": np.full(n, np.nan),
+            "asked": np.zeros(n, bool), "gravity_reason": np.zeros(n, np.int8)}
+
+
+def _same_gravity(a, b):
+    """True when two gravity settings ((g (3,), drho) or None) are the same."""
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.array_equal(np.asarray(a[0], float), b[0]) and float(a[1]) == b[1])
+
+
 def _bridge_grain_forces(model, geom, grains, members):
     """(k, 3, 3) doublet forces [N] of the bridges ``members`` (k, 3, 2; -1 padded) on
     the grains ``grains`` (k, 3) of each cluster: what the cluster's liquid gave those
@@ -401,8 +442,9 @@ class LiquidClusters:
         self.gravity = None
         self.gravity_fallback = 0
         #: why clusters got the equal weight share (:meth:`gravity_forces`)
-        self.gravity_fallback_reasons = {"table_has_no_response": 0, "bond_above_max": 0,
-                                         "no_response_number": 0}
+        self.gravity_fallback_reasons = {name: 0 for name in GRAVITY_FALLBACKS}
+        self._expansion_gravity = None       # the gravity of the expansions' lookups
+        self._expansion_table = None         # and their surrogate
         self._now = 0
         self.stats = _new_stats()
 
@@ -413,6 +455,18 @@ class LiquidClusters:
         self.born = np.empty(0, np.intp)
         self.approx = np.empty(0, bool)
         self.last_forces = np.empty((0, 3, 3))         # grain forces last step [N]
+        self.expansion = _no_expansion(0)
+
+    def _append(self, grains, members, volume, born, approx):
+        """One new cluster, last in every per-cluster array."""
+        self.grains = np.vstack([self.grains, grains[None]])
+        self.members = np.concatenate([self.members, members[None]])
+        self.volume = np.append(self.volume, volume)
+        self.born = np.append(self.born, born)
+        self.approx = np.append(self.approx, approx)
+        self.last_forces = np.concatenate([self.last_forces, np.full((1, 3, 3), np.nan)])
+        self.expansion = {k: np.concatenate([v, e]) for (k, v), e in
+                          zip(self.expansion.items(), _no_expansion(1).values())}
 
     # ------------------------------------------------------------------ the table
     @property
@@ -460,7 +514,7 @@ class LiquidClusters:
         rows = self._rows(model, self.members.reshape(-1, 2))
         return rows[rows >= 0]
 
-    def lookup(self, model, pos, grains, volume, gravity=False):
+    def lookup(self, model, pos, grains, volume, gravity=False, slopes=False):
         """Triplet table answer for clusters on ``grains`` (k, 3) at centres ``pos``.
 
         Gaps below zero (grains in contact overlap in a DEM) are taken as contact, as
@@ -474,100 +528,274 @@ class LiquidClusters:
         gravity parts of the grain forces [N] in the scene frame
         (:meth:`gravity_forces`); ``status`` stays the answer without gravity (a
         cluster whose gravity response has no number keeps its forces, with the
-        weight shared equally, counted).
+        weight shared equally, counted).  With ``slopes``, also ``slope`` (k, 3, 3):
+        d f_p / d g_m [N], the pair forces' forward differences in the lookup gaps g
+        (gaps / the smallest radius, contacts at 0) over :data:`REUSE_GAP`, from the
+        same call (NaN where a neighbouring point has no result).
         """
         t0 = time.perf_counter()
-        sur = self.surrogate()
-        k = grains.shape[0]
+        out = self._answer(self._geometry(model, pos, grains), volume, gravity, slopes)
+        self._count_gravity(out.pop("gravity_reason"))
+        self.timings["lookup_seconds"] += time.perf_counter() - t0
+        return out
+
+    @staticmethod
+    def _geometry(model, pos, grains):
+        """Pair vectors, unit vectors, gaps [m] and radii of the clusters ``grains``."""
         R = model.radii[grains]                                    # (k, 3)
-        P = ((0, 1), (0, 2), (1, 2))
-        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b]) for a, b in P], 1)
+        d = np.stack([model.pair_vectors(pos, grains[:, a], grains[:, b])
+                      for a, b in _PAIRS], 1)
         dist = np.sqrt(np.einsum("kpi,kpi->kp", d, d))
-        u = d / dist[..., None]
-        Rsum = np.stack([R[:, a] + R[:, b] for a, b in P], 1)
-        gaps = dist - Rsum
+        Rsum = np.stack([R[:, a] + R[:, b] for a, b in _PAIRS], 1)
+        Rmin = np.stack([np.minimum(R[:, a], R[:, b]) for a, b in _PAIRS], 1)
+        # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does
+        return {"d": d, "u": d / dist[..., None], "gaps": dist - Rsum, "R": R,
+                "Rsum": Rsum, "r": R.min(axis=1), "theta": model.theta[grains[:, 0]],
+                "contact": dist - Rsum >= -CONTACT_OVERLAP_MAX * Rmin}
+
+    def _answer(self, geo, volume, gravity, slopes):
+        """:meth:`lookup` on the geometry ``geo`` of :meth:`_geometry`; also
+        ``gravity_reason`` (k,) codes of :data:`GRAVITY_FALLBACKS` (0: none)."""
+        sur = self.surrogate()
+        gaps, R, r, theta = geo["gaps"], geo["R"], geo["r"], geo["theta"]
+        k = gaps.shape[0]
         g = np.maximum(gaps, 0.0)
-        theta = model.theta[grains[:, 0]]
         out = {"f": np.full((k, 3), np.nan), "status": np.full(k, Status.OUT_OF_RANGE, np.int8),
-               "lower": np.full(k, 3, np.int8), "u": u, "gaps": gaps, "v": np.full(k, np.nan)}
-        # lengths / R_min (the normalising radius), as TripletSurrogate.predict_si does;
-        # predict_vectors also gives the lower-energy state
-        r = R.min(axis=1)
-        grav = self._gravity_request(gravity, sur, r) if k else None
+               "lower": np.full(k, 3, np.int8), "u": geo["u"], "gaps": gaps,
+               "v": np.full(k, np.nan), "gravity_reason": np.zeros(k, np.int8)}
+        grav = self._gravity_request(gravity, sur, r, out["gravity_reason"]) if k else None
         # clusters whose gaps (scaled as predict_vectors scales them) or angle are
         # outside the table, or with a DEM overlap deeper than a contact's, are
         # OUT_OF_RANGE without a lookup
-        Rmin = np.stack([np.minimum(R[:, a], R[:, b]) for a, b in P], 1)
         out["asked"] = sur.covers(g[:, 0] / r, g[:, 1] / r, g[:, 2] / r, theta,
-                                  radii=R / r[:, None]) & \
-            np.all(gaps >= -CONTACT_OVERLAP_MAX * Rmin, axis=1)
+                                  radii=R / r[:, None]) & np.all(geo["contact"], axis=1)
         ask = np.flatnonzero(out["asked"])
         if grav is not None:
             out["gravity"] = np.full((k, 3, 3), np.nan)
+        if slopes:
+            out["slope"] = np.full((k, 3, 3), np.nan)
+            out["vc"], out["vc_slope"] = np.full(k, np.nan), np.full((k, 3), np.nan)
+            out["toward"] = np.zeros((k, 3), np.int8)
         if ask.size:
             # the scene's own centres (grain 0 at the origin): forces and gravity parts
             # come back in the scene frame; contacts are looked up at gap 0 there
             C = np.zeros((ask.size, 3, 3))
-            C[:, 1], C[:, 2] = d[ask, 0], d[ask, 1]
+            C[:, 1], C[:, 2] = geo["d"][ask, 0], geo["d"][ask, 1]
             rk = r[ask]
-            kw = {} if grav is None else {"bond": grav["bond"][ask],
-                                          "gravity": grav["direction"]}
+            C, V, t = C / rk[:, None, None], volume[ask] / rk**3, theta[ask]
+            Rk = R[ask] / rk[:, None]
+            bond = None if grav is None else grav["bond"][ask]
+            if slopes:
+                # the same call also looks up three triangles, each with one lookup
+                # gap REUSE_GAP wider (narrower where wider leaves the table; neither:
+                # no slopes, the cluster is looked up at every step)
+                gn = g[ask] / rk[:, None]
+                step = np.zeros((ask.size, 3))
+                for m in range(3):
+                    for h in (-REUSE_GAP, REUSE_GAP):
+                        moved = gn + h * np.eye(3)[m]
+                        inside = sur.covers(*moved.T, t, radii=Rk) & (moved[:, m] >= 0)
+                        step[:, m] = np.where(inside, h, step[:, m])
+                side = gn + geo["Rsum"][ask] / rk[:, None]
+                C = np.concatenate([C] + [triangle_centres(*(side + step[:, m, None] *
+                                                            np.eye(3)[m]).T)
+                                          for m in range(3)])
+                V, t, Rk = np.tile(V, 4), np.tile(t, 4), np.tile(Rk, (4, 1))
+                if bond is not None:
+                    bond = np.concatenate([bond, np.zeros(3 * ask.size)])
+            kw = {} if grav is None else {"bond": bond, "gravity": grav["direction"]}
             try:
-                res = sur.predict_vectors(C / rk[:, None, None], volume[ask] / rk**3,
-                                          theta[ask], radii=R[ask] / rk[:, None], **kw)
+                res = sur.predict_vectors(C, V, t, radii=Rk, **kw)
             except CapbridgeInputError:
                 if ask.size > 1:     # one cluster refused (e.g. no triangle): one by one
                     for c in ask:
-                        one = self.lookup(model, pos, grains[c:c + 1], volume[c:c + 1],
-                                          gravity)
-                        for key in ("f", "status", "lower", "gravity", "v"):
+                        one = self._answer({key: x[c:c + 1] for key, x in geo.items()},
+                                           volume[c:c + 1], gravity, slopes)
+                        for key in ("f", "status", "lower", "gravity", "v", "slope",
+                                    "vc", "vc_slope", "toward", "gravity_reason"):
                             if key in out:
                                 out[key][c] = one[key][0]
-            else:
-                fs = force_scale(rk, self.gamma)
-                out["f"][ask] = np.stack([res[n] for n in ("f12", "f13", "f23")], -1) * \
-                    fs[:, None]
-                out["status"][ask] = res.get("status_without_gravity", res["status"])
-                out["v"][ask] = res["v"]
-                out["lower"][ask] = res["lower_energy_state"]
                 if grav is not None:
-                    part = res["gravity_first_order"] + res["gravity_second_order"]
-                    part[grav["bond"][ask] == 0.0] = np.nan     # Bo above the table's
-                    out["gravity"][ask] = part * fs[:, None, None]
+                    out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume,
+                                                            out["gravity_reason"])
+                return out
+            n = ask.size
+            fs = force_scale(rk, self.gamma)
+            f = np.stack([res[name] for name in ("f12", "f13", "f23")], -1)
+            out["f"][ask] = f[:n] * fs[:, None]
+            status = res.get("status_without_gravity", res["status"])
+            out["status"][ask] = status[:n]
+            out["v"][ask] = res["v"][:n]
+            out["lower"][ask] = res["lower_energy_state"][:n]
+            if slopes:
+                for key, x in self._slopes(sur, f, status, res["volume_coalescence"],
+                                           step, gn, side, V[:n], t[:n], Rk[:n]).items():
+                    out[key][ask] = x * (fs[:, None, None] if key == "slope" else 1)
+            if grav is not None:
+                part = res["gravity_first_order"][:n] + res["gravity_second_order"][:n]
+                part[grav["bond"][ask] == 0.0] = np.nan     # Bo above the table's
+                out["gravity"][ask] = part * fs[:, None, None]
         if grav is not None:
-            out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume, r)
+            out["gravity"] = self._gravity_fallback(out["gravity"], grav, volume,
+                                                    out["gravity_reason"])
+        return out
+
+    @staticmethod
+    def _slopes(sur, f, status, vc, step, gn, side, V, t, R):
+        """Forward differences (``slope`` (n, 3, 3) [F*], ``vc_slope`` (n, 3)) of the
+        pair forces f and of V*_coal / r^3 from the lookups of the clusters (the first
+        n rows of f, status, vc) and of their three moved triangles (one block of n
+        rows per gap, moved by ``step``).  A triangle moved into a cell without a
+        result (a hole or edge of the table) is moved the other way in one more call;
+        the cluster's expansion then holds only while that gap does not move toward
+        the cell (``toward`` (n, 3): +1, -1 the direction, 0 none).  No result either
+        way: no slope in that gap, the expansion holds while it does not move
+        (``toward`` :data:`PINNED`).  No result at the cluster itself: NaN slopes."""
+        n = gn.shape[0]
+        step = step.copy()
+        has = status_in(status, HAS_RESULT).reshape(4, n)
+        fm, vcm = f[n:].reshape(3, n, 3).copy(), vc[n:].reshape(3, n).copy()
+        toward = np.zeros((n, 3), np.int8)
+        m, c = np.nonzero(~has[1:] & has[0])
+        back = -step[c, m]
+        moved = gn[c] + back[:, None] * np.eye(3)[m]
+        flip = (back != 0) & sur.covers(*moved.T, t[c], radii=R[c]) & \
+            (moved[np.arange(c.size), m] >= 0)
+        m, c, back = m[flip], c[flip], back[flip]
+        if c.size:
+            try:
+                res = sur.predict_vectors(triangle_centres(*(side[c] + back[:, None] *
+                                                             np.eye(3)[m]).T),
+                                          V[c], t[c], radii=R[c])
+            except CapbridgeInputError:
+                res = None
+            if res is not None:
+                ok = status_in(res["status"], HAS_RESULT)
+                m, c, back = m[ok], c[ok], back[ok]
+                fm[m, c] = np.stack([res[k][ok] for k in ("f12", "f13", "f23")], -1)
+                vcm[m, c] = res["volume_coalescence"][ok]
+                has[1 + m, c] = True
+                toward[c, m] = -np.sign(back).astype(np.int8)
+                step[c, m] = back
+        # no result either way (e.g. a contact, gap 0, whose wider triangle is in a
+        # hole): no slope in that gap, the expansion holds while the gap stays put
+        pinned = ~has[1:].T & has[0][:, None]                              # (n, m)
+        toward[pinned] = PINNED
+        fm[pinned.T], vcm[pinned.T] = f[:n][np.nonzero(pinned)[0]], vc[:n][
+            np.nonzero(pinned)[0]]
+        step[pinned] = REUSE_GAP
+        h = np.where(step == 0, np.nan, step).T                            # (m, n)
+        slope = np.where(has[0][:, None, None], np.transpose(
+            (fm - f[:n]) / h[..., None], (1, 2, 0)), np.nan)               # (n, p, m)
+        return {"slope": slope, "vc": vc[:n], "vc_slope": ((vcm - vc[:n]) / h).T,
+                "toward": toward}
+
+    def _expanded_lookup(self, model, pos):
+        """The step's answer for the live clusters: the pair forces of each cluster's
+        last lookup expanded to first order in its lookup gaps (:attr:`expansion`),
+        while no gap moved by more than :data:`REUSE_GAP` since that lookup and the
+        cluster, its liquid and the gravity are the same; a fresh lookup with slopes
+        otherwise (with it, those of the others that moved by more than half of
+        :data:`REUSE_GAP`, so that fresh lookups come in few calls).  Statuses, the
+        lower-energy state and the gravity parts are those of the last lookup.  Same
+        keys as :meth:`lookup`."""
+        t0 = time.perf_counter()
+        geo = self._geometry(model, pos, self.grains)
+        e = self.expansion
+        sur = self._check_expansion_source()
+        g = np.maximum(geo["gaps"], 0.0) / geo["r"][:, None]
+        with np.errstate(invalid="ignore"):
+            drift = np.max(np.abs(g - e["gaps"]), axis=1)        # NaN: no expansion
+        dg = np.where(np.isfinite(e["gaps"]), g - e["gaps"], 0.0)
+        # v = V*/V*_coal moves with the gaps: a cluster near the table's v range is
+        # looked up (its status, e.g. "extrapolated" above the range, is the lookup's)
+        with np.errstate(invalid="ignore"):
+            v = self.volume / geo["r"]**3 / (e["vc"] + np.einsum("km,km->k",
+                                                                  e["vc_slope"], dg))
+            inside = (v >= sur.v_[0] * (1 + V_MARGIN)) & (v <= sur.v_[-1] * (1 - V_MARGIN))
+        keep = (drift <= REUSE_GAP) & np.isfinite(e["slope"]).all(axis=(1, 2)) & \
+            np.all(geo["contact"], axis=1) & inside & ~np.any(
+                (dg * e["toward"] > 0) | ((e["toward"] == PINNED) & (dg != 0)), axis=1)
+        if not keep.all():
+            fresh = np.flatnonzero(~keep | (drift > 0.5 * REUSE_GAP))
+            sub = {key: x[fresh] for key, x in geo.items()}
+            self._store_expansion(fresh, sub, self._answer(sub, self.volume[fresh], True, True))
+            dg[fresh] = 0.0
+        out = {"f": e["f"] + np.einsum("kpm,km->kp", np.nan_to_num(e["slope"]), dg),
+               "u": geo["u"], "gaps": geo["gaps"]}
+        out.update({key: e[key].copy() for key in ("status", "lower", "v", "asked")})
+        if self._expansion_gravity is not None and self._gravity_answered():
+            out["gravity"] = e["gravity"].copy()
+        self._count_gravity(e["gravity_reason"])
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         return out
 
-    def _gravity_request(self, gravity, sur, r):
+    def _check_expansion_source(self):
+        """The surrogate; the expansions are dropped if it or the gravity changed since
+        they were made (then every cluster is looked up)."""
+        sur = self.surrogate()
+        if self._expansion_table is None:          # a new engine, or after a restart
+            self._expansion_table = sur
+        if sur is not self._expansion_table or \
+                not _same_gravity(self.gravity, self._expansion_gravity):
+            self._expansion_table = sur
+            self.expansion["gaps"][:] = np.nan
+            self._expansion_gravity = None if self.gravity is None else \
+                (np.array(self.gravity[0], float), float(self.gravity[1]))
+        return sur
+
+    def _store_expansion(self, rows, geo, res):
+        """Clusters ``rows`` expand from the answer ``res`` (of :meth:`_answer` with
+        slopes) at their geometry ``geo``."""
+        e = self.expansion
+        e["gaps"][rows] = np.maximum(geo["gaps"], 0.0) / geo["r"][:, None]
+        for key in ("f", "slope", "vc", "vc_slope", "toward", "status", "lower", "v",
+                    "asked", "gravity_reason"):
+            e[key][rows] = res[key]
+        e["gravity"][rows] = res["gravity"] if "gravity" in res else np.nan
+
+    def _gravity_answered(self):
+        """True when the lookups give gravity parts (gravity on the liquid and a table
+        with a response; without one the forces are the zero-gravity ones, counted)."""
+        g_vec, drho = self._expansion_gravity
+        return bool(np.any(g_vec != 0) and drho != 0 and
+                    getattr(self.surrogate(), "has_gravity_", False))
+
+    def _count_gravity(self, reason):
+        """Count the clusters of one lookup that fell back, by reason code."""
+        counts = np.bincount(reason, minlength=len(GRAVITY_FALLBACKS) + 1)
+        for name, c in zip(GRAVITY_FALLBACKS, counts[1:]):
+            self.gravity_fallback_reasons[name] += int(c)
+        # "table_has_no_response" keeps the zero-gravity forces; the others the equal
+        # share of the weight (gravity_fallback)
+        self.gravity_fallback += int(counts[1:].sum())
+
+    def _gravity_request(self, gravity, sur, r, reason):
         """What the lookup needs for gravity on the clusters' liquid, or None (no
         gravity, or a table without a response: then :meth:`_gravity_fallback` is not
-        needed either, the forces are the zero-gravity ones, counted)."""
+        needed either, the forces are the zero-gravity ones, counted in ``reason``)."""
         if not gravity or self.gravity is None:
             return None
         g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
         gn = float(np.linalg.norm(g_vec))
         if gn == 0.0 or drho == 0.0:
             return None
-        k = r.shape[0]
         if not getattr(sur, "has_gravity_", False):
-            self.gravity_fallback += k
-            self.gravity_fallback_reasons["table_has_no_response"] += k
+            reason[:] = GRAVITY_FALLBACKS.index("table_has_no_response") + 1
             return None
         bond = drho * gn * r**2 / self.gamma
         above = bond > BOND_MAX
         return {"direction": g_vec, "bond": np.where(above, 0.0, bond), "above": above}
 
-    def _gravity_fallback(self, part, grav, volume, r):
+    def _gravity_fallback(self, part, grav, volume, reason):
         """Clusters whose gravity response has no number (a cell touching a gravity
         node that did not converge: in the shipped table 28 of 405 nodes, theta 0-20
         deg at v 0.85-1.25) or whose Bo is above the table's get the liquid's weight
         shared equally by their three grains (the first-order answer for three equal
-        grains in an equilateral triangle), counted by reason."""
+        grains in an equilateral triangle), with their reason code in ``reason``."""
         bad = ~np.all(np.isfinite(part), axis=(1, 2))
-        self.gravity_fallback_reasons["no_response_number"] += int((bad & ~grav["above"]).sum())
-        self.gravity_fallback_reasons["bond_above_max"] += int(grav["above"].sum())
-        self.gravity_fallback += int(bad.sum())
+        reason[bad & ~grav["above"]] = GRAVITY_FALLBACKS.index("no_response_number") + 1
+        reason[grav["above"]] = GRAVITY_FALLBACKS.index("bond_above_max") + 1
         if bad.any():
             g_vec, drho = np.asarray(self.gravity[0], float), float(self.gravity[1])
             weight = drho * volume[bad, None] * g_vec             # [N], the liquid's weight
@@ -643,7 +871,7 @@ class LiquidClusters:
             self.last = None
             return {"forces": forces, "grains": np.empty(0, np.intp), "geom": geom,
                     "ruptured": 0}
-        res = self.lookup(model, pos, self.grains, self.volume, gravity=True)
+        res = self._expanded_lookup(model, pos)
         ok = status_in(res["status"], HAS_RESULT)
         energy = ok & (res["lower"] == _SEPARATED)
         geometry = ~ok
@@ -754,7 +982,12 @@ class LiquidClusters:
             return
         grains = np.array([g for g, _, _ in cand], np.intp)
         vol = np.array([v for _, _, v in cand])
-        res = self.lookup(model, pos, grains, vol)
+        # the candidates' lookup is also the merged clusters' first expansion
+        t0 = time.perf_counter()
+        self._check_expansion_source()
+        geo = self._geometry(model, pos, grains)
+        res = self._answer(geo, vol, True, True)
+        self.timings["lookup_seconds"] += time.perf_counter() - t0
         ok = status_in(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
         # refused triplets are counted once, not at every check while they stay refused
         refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
@@ -769,14 +1002,13 @@ class LiquidClusters:
             mem = np.full((3, 2), -1, np.intp)
             mem[:len(pairs)] = pairs
             approx = bool(np.ptp(model.radii[g]) > 1e-12 * model.radii[g].max())
-            self.grains = np.vstack([self.grains, g[None]])
-            self.members = np.concatenate([self.members, mem[None]])
-            self.volume = np.append(self.volume, v)
-            self.born = np.append(self.born, step)
-            self.approx = np.append(self.approx, approx)
-            self.last_forces = np.concatenate([self.last_forces, np.full((1, 3, 3), np.nan)])
+            self._append(g, mem, v, step, approx)
             self.events["merged"] += 1
             self.events["approximate"] += int(approx)
+        new = np.flatnonzero(ok)
+        self._store_expansion(np.arange(self.n - new.size, self.n),
+                              {key: x[new] for key, x in geo.items()},
+                              {key: x[new] for key, x in res.items()})
 
     def _follow_bridges(self, model):
         """The live clusters against the model's bridges, from one search of the three
@@ -801,6 +1033,7 @@ class LiquidClusters:
             slot = int(np.flatnonzero(self.members[c, :, 0] < 0)[0])
             self.members[c, slot] = (model.bi[b], model.bj[b])
             self.volume[c] += model.vol[b]
+            self.expansion["gaps"][c] = np.nan          # a new volume: a new lookup
             self.events["absorbed"] += 1
 
     def _note_funicular(self, funicular):
@@ -821,6 +1054,7 @@ class LiquidClusters:
         self.volume, self.born, self.approx = self.volume[keep], self.born[keep], \
             self.approx[keep]
         self.last_forces = self.last_forces[keep]
+        self.expansion = {k: v[keep] for k, v in self.expansion.items()}
 
     def _split(self, model, pos, which):
         """Split clusters ``which`` into their bridges at equal pressure (module
@@ -969,7 +1203,11 @@ class LiquidClusters:
                 "funicular_keys": [list(k) for k in sorted(self._funicular_keys)],
                 "refused_keys": [list(k) for k in sorted(self._refused_keys)],
                 "stats": {k: (list(v) if isinstance(v, list) else v)
-                          for k, v in self.stats.items()}}
+                          for k, v in self.stats.items()},
+                # the expansions, so that a restart looks up where the run would have
+                **{"expansion_" + k: v.copy() for k, v in self.expansion.items()},
+                "expansion_made_under": None if self._expansion_gravity is None else
+                [self._expansion_gravity[0].tolist(), self._expansion_gravity[1]]}
 
     def set_state(self, st):
         """Continue from :meth:`get_state` (the table is loaded again only when needed)."""
@@ -979,6 +1217,14 @@ class LiquidClusters:
         self.born = np.asarray(st["born"], np.intp).ravel()
         self.approx = np.asarray(st["approx"], bool).ravel()
         self.last_forces = np.full((self.volume.size, 3, 3), np.nan)
+        # restart files written before the expansions look every cluster up again
+        self.expansion = _no_expansion(self.volume.size)
+        if "expansion_gaps" in st:
+            self.expansion = {k: np.asarray(st["expansion_" + k], v.dtype).reshape(v.shape)
+                              for k, v in self.expansion.items()}
+        eg = st.get("expansion_made_under")
+        self._expansion_gravity = None if eg is None else (np.asarray(eg[0], float),
+                                                           float(eg[1]))
         self.events.update({k: int(v) for k, v in st["events"].items()})
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
