@@ -186,3 +186,35 @@ def test_predict_regions_refuses_nothing_but_gives_no_cap_without_bridge():
     S, L, _ = wr.predict_regions(C, np.ones(3), 30.0, -2.0, [(0, 1)])
     np.testing.assert_allclose(S[2], 0)
     np.testing.assert_allclose(L[2], 0)
+
+
+def test_window_balls_touch_three_grains_at_the_contact_angle():
+    C = _triangle(2.05, 70.0)
+    for theta, b in ((0.0, 0.8), (30.0, 1.5)):
+        balls = wr.window_balls(C, np.ones(3), theta, b)
+        assert balls.shape == (2, 3)
+        D = np.sqrt(1 + b * b + 2 * b * np.cos(np.radians(theta)))
+        for x in balls:
+            np.testing.assert_allclose(np.linalg.norm(C - x, axis=1), D, rtol=1e-10)
+        # one on each side of the plane of the centres (y = 0 here)
+        assert balls[0, 1] * balls[1, 1] < 0
+    # a ball small enough to pass through the triangle touches no three grains
+    assert len(wr.window_balls(_triangle(2.6, 100.0), np.ones(3), 0.0, 0.05)) == 0
+
+
+def test_window_model_open_triangle_and_its_fallback():
+    C = _triangle(2.0, 70.0)
+    pairs = [(0, 1), (0, 2)]
+    # suction: window pieces, symmetric, and the pore adds to every grain
+    S, L, _ = wr.predict_regions(C, np.ones(3), 30.0, -1.5, pairs)
+    F = wr.region_force(-1.5, 30.0, S, L)
+    np.testing.assert_allclose(F[1] * [-1, 1, 1], F[2], atol=1e-3)
+    S0, _, _ = wr.predict_regions(C, np.ones(3), 30.0, -1.5, pairs, pores=False)
+    assert np.all(np.linalg.norm(S, axis=1) > np.linalg.norm(S0, axis=1))
+    np.testing.assert_allclose(F.sum(axis=0), 0, atol=0.05 * np.abs(F).max())
+    # P* >= 0: no window ball; the model is the hull with mirror caps
+    S, L, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs)
+    Sh, Lh, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs, pore_shape="hull",
+                                   windows=False, open_side="mirror")
+    np.testing.assert_allclose(S, Sh, atol=1e-12)
+    np.testing.assert_allclose(L, Lh, atol=1e-12)

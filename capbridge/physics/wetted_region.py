@@ -44,7 +44,7 @@ import numpy as np
 
 __all__ = ["region_force", "cap_region", "cap_half_angle", "polygon_region",
            "meridian_half_angles", "toroidal_half_angles", "union_region",
-           "cap_hull_polygon", "predict_regions"]
+           "cap_hull_polygon", "window_balls", "predict_regions"]
 
 
 def region_force(pressure, theta, S, L):
@@ -325,7 +325,7 @@ def _inside(piece, x, eps=1e-12):
     return res
 
 
-def union_region(pieces, n=720):
+def union_region(pieces, n=720, holes=()):
     """S* and L* (unit sphere) of a union of convex pieces of the sphere.
 
     Parameters
@@ -337,12 +337,15 @@ def union_region(pieces, n=720):
     n : int
         Boundary points per cap circle (polygons: n / 8 per edge); the error of S* and
         L* is O(1 / n) where boundaries cross.
+    holes : sequence of (e, alpha)
+        Caps taken out of the union (dry discs).
 
     Returns
     -------
     S, L : numpy.ndarray, shape (3,)
-        The union's boundary is the part of each piece's boundary outside every other
-        piece, run with the union on its left; S* = 1/2 sum a x b, L* = sum |b - a| n.
+        The region's boundary is the part of each piece's boundary outside every other
+        piece and every hole, and the part of each hole's circle inside the union,
+        run with the region on its left; S* = 1/2 sum a x b, L* = sum |b - a| n.
 
     Two equal caps on opposite sides cancel:
 
@@ -358,24 +361,45 @@ def union_region(pieces, n=720):
         else:
             V = np.asarray(data, float)
             norm.append(("polygon", V / np.linalg.norm(V, axis=1, keepdims=True)))
+    hl = [("cap", (np.asarray(e, float) / np.linalg.norm(e), float(a)))
+          for e, a in holes if np.isfinite(a) and a > 0]
     S = np.zeros(3)
     L = np.zeros(3)
+
+    def add(a, b, keep):
+        nonlocal S, L
+        a, b = a[keep], b[keep]
+        m = 0.5 * (a + b)
+        m = m / np.linalg.norm(m, axis=1, keepdims=True)
+        S += 0.5 * np.cross(a, b).sum(axis=0)
+        L += (np.linalg.norm(b - a, axis=1)[:, None] * m).sum(axis=0)
+
+    def mids(p):
+        m = 0.5 * (p[:-1] + p[1:])
+        ln = np.linalg.norm(m, axis=1, keepdims=True)
+        return m / np.where(ln > 0, ln, 1.0)
+
     for k, (kind, data) in enumerate(norm):
         if kind == "cap":
             p = _cap_boundary(data[0], data[1], n)
         else:
             p = _polygon_boundary(data, max(n // 8, 4))
-        a, b = p[:-1], p[1:]
-        m = 0.5 * (a + b)
-        ln = np.linalg.norm(m, axis=1, keepdims=True)
-        m = m / np.where(ln > 0, ln, 1.0)
+        m = mids(p)
         out = np.ones(len(m), bool)
-        for q, other in enumerate(norm):
+        for q, other in enumerate(norm + hl):
             if q != k:
                 out &= ~_inside(other, m)
-        a, b, m = a[out], b[out], m[out]
-        S += 0.5 * np.cross(a, b).sum(axis=0)
-        L += (np.linalg.norm(b - a, axis=1)[:, None] * m).sum(axis=0)
+        add(p[:-1], p[1:], out)
+    for k, (_, (e, a)) in enumerate(hl):
+        p = _cap_boundary(e, a, n)[::-1]          # clockwise: the region on its left
+        m = mids(p)
+        inside = np.zeros(len(m), bool)
+        for piece in norm:
+            inside |= _inside(piece, m)
+        for q, other in enumerate(hl):
+            if q != k:
+                inside &= ~_inside(other, m)
+        add(p[:-1], p[1:], inside)
     return S, L
 
 
@@ -425,23 +449,68 @@ def _ccw(V):
     return V
 
 
+def window_balls(centres, radii, theta, ball):
+    """Centres of the gas balls of radius ``ball`` that touch three grains at the
+    contact angle (the windows of a pore body), or an empty array.
+
+    A ball meeting sphere m at the contact angle theta has its centre at
+    D_m = sqrt(R_m^2 + b^2 + 2 R_m b cos(theta)) from c_m; the balls touching three
+    grains are the two intersections of those three spheres, one on each side of the
+    plane of the centres.
+
+    Returns
+    -------
+    numpy.ndarray, shape (k, 3), k = 0 or 2
+    """
+    C = np.asarray(centres, float)
+    R = np.asarray(radii, float)
+    t = np.radians(theta)
+    D = np.sqrt(R ** 2 + ball ** 2 + 2 * R * ball * np.cos(t))
+    ex = C[1] - C[0]
+    dx = np.linalg.norm(ex)
+    ex /= dx
+    i = ex @ (C[2] - C[0])
+    ey = C[2] - C[0] - i * ex
+    dy = np.linalg.norm(ey)
+    if dy < 1e-12:
+        return np.zeros((0, 3))
+    ey /= dy
+    ez = np.cross(ex, ey)
+    x = (D[0] ** 2 - D[1] ** 2 + dx ** 2) / (2 * dx)
+    y = (D[0] ** 2 - D[2] ** 2 + i ** 2 + dy ** 2 - 2 * i * x) / (2 * dy)
+    z2 = D[0] ** 2 - x ** 2 - y ** 2
+    if z2 <= 0:
+        return np.zeros((0, 3))
+    z = np.sqrt(z2)
+    base = C[0] + x * ex + y * ey
+    return np.array([base + z * ez, base - z * ez])
+
+
 def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
-                    open_side="point", pores=True, n=720):
+                    open_side="mirror", pores=True, windows=True, window_kappa=2.0,
+                    pore_shape="kite", flat_windows=False, n=720):
     """Wetted regions (S*, L*) of every grain of one coalesced body, without minimisation.
 
-    The hull model: grain i's region is the union of
+    Grain i's region is the union of
 
     * a cap toward each bridged neighbour j (``pairs``), its half-angle that of the
       toroidal bridge at the body's pressure (:func:`toroidal_half_angles`; beyond the
       bridge's minimum pressure, the caps at that minimum);
     * for each triangle of the body (i bridged to j and k, the gap j-k at most
-      ``max_open_gap``), the spherical convex hull of the caps toward j and k (the
-      pore between them, :func:`cap_hull_polygon`); if j-k is not bridged (an open
-      side), grain j also gets the hull of its cap toward i and a cap toward k
-      (``open_side``: ``"point"``, the point facing k; ``"toroidal"``, the toroidal cap
-      of the pair j-k at the body's pressure);
+      ``max_open_gap``) a pore piece on each of its grains (``pore_shape``): by default
+      (``"kite"``, with ``windows``) in suction the spherical polygon through the
+      directions to the other two grains and to the triangle's window balls (gas
+      spheres of radius 2 / |P*|, the Laplace radius of a spherical window, touching
+      the three grains at the contact angle, :func:`window_balls`), less the balls'
+      dry discs; where no window ball exists (P* >= 0, or a ball that passes through
+      the triangle), the spherical convex hull of the caps toward the other two
+      (:func:`cap_hull_polygon`), with, on an open side's grains, a cap toward the far
+      grain (``open_side``);
     * for each filled tetrahedron (four grains, six bridged pairs), the spherical
       triangle spanned by the directions to the other three.
+
+    Accuracy against Surface Evolver: ``benchmarks/bench_wetted_region.py`` (good in
+    suction, poor for the convex bodies of P* > 0).
 
     Parameters
     ----------
@@ -464,6 +533,22 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
     pores : bool
         False: the caps alone (no triangle or tetrahedron pieces), the bridges of the
         body at its pressure.
+    windows : bool
+        In suction (P* < 0), take out of each grain the dry discs of the window balls
+        (:func:`window_balls`) of every triangle of the body: gas spheres of radius
+        ``window_kappa / |P*|`` (2: a spherical window, Laplace-consistent) touching
+        the triangle's three grains, except those that would cut another grain of the
+        body (the pore's inside, e.g. a filled tetrahedron's).
+    pore_shape : {"hull", "kite"}
+        The pore piece of each triangle on each of its grains: the convex hull of the
+        caps toward the other two ("hull"), or, where window balls exist, the
+        spherical polygon through the directions to the other two grains and the
+        directions to the window balls ("kite", with ``windows``; hull elsewhere).
+    flat_windows : bool
+        With ``pore_shape="kite"`` and P* >= 0 (no window ball), the pore piece of a
+        triangle on a grain is the lune between the directions to the other two grains,
+        cut at latitude +-(90 deg - theta) from the plane of the triangle (flat windows
+        meeting the grains at the contact angle) instead of the hull.
     n : int
         Boundary resolution (:func:`union_region`).
 
@@ -548,10 +633,72 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
                            for x, y in ((j, k), (j, l), (k, l))):
                         pieces[i].append(("polygon", _ccw([u(i, j), u(i, k), u(i, l)])))
                         tetrahedra.append(tuple(sorted((i, j, k, l))))
+    holes = [[] for _ in range(N)]
+    if windows and pores and pore_shape == "kite" and (pressure < 0 or flat_windows):
+        # replace each triangle's hull pieces by polygons through the window balls
+        bw = window_kappa / max(abs(float(pressure)), 1e-12)
+        Dm = np.sqrt(R ** 2 + bw ** 2 + 2 * R * bw * np.cos(np.radians(theta)))
+        pieces = [[] for _ in range(N)]
+        for i, j in sorted(bridged):
+            for g, h in ((i, j), (j, i)):
+                c = cap_of(g, h)
+                if c is not None and c[1] > 0:
+                    pieces[g].append(("cap", c))
+        for i, j, k in triangles:
+            balls = []
+            for b in (window_balls(C[[i, j, k]], R[[i, j, k]], theta, bw)
+                      if pressure < 0 else []):
+                dist = np.linalg.norm(C - b, axis=1)
+                if not any(dist[m] < Dm[m] - 1e-9 for m in range(N) if m not in (i, j, k)):
+                    balls.append(b)
+            for m, a_, b_ in ((i, j, k), (j, i, k), (k, i, j)):
+                if m != i and (min(j, k), max(j, k)) in bridged:
+                    continue            # a closed triangle: each grain once, as i
+                if not balls and flat_windows and pressure >= 0:
+                    # flat windows: the grains cut the planes at +-cos(theta) from the
+                    # plane of the centres at the contact angle; the pore piece spans
+                    # the lune between the directions to the other two grains up to
+                    # latitude +-(90 deg - theta)
+                    nz = np.cross(C[a_] - C[m], C[b_] - C[m])
+                    nz /= np.linalg.norm(nz)
+                    lat = np.pi / 2 - np.radians(theta)
+                    V = []
+                    for x, sg in ((a_, 1), (b_, 1), (b_, -1), (a_, -1)):
+                        V.append(np.cos(lat) * u(m, x) + sg * np.sin(lat) * nz)
+                    V = [u(m, a_), V[0], V[1], u(m, b_), V[2], V[3]]
+                    pieces[m].append(("polygon", _ccw(V)))
+                elif balls:
+                    V = [u(m, a_)] + [(balls[0] - C[m]) / np.linalg.norm(balls[0] - C[m])] \
+                        + [u(m, b_)] + [(bb - C[m]) / np.linalg.norm(bb - C[m])
+                                        for bb in balls[1:]]
+                    pieces[m].append(("polygon", _ccw(V)))
+                else:
+                    cp, cq = cap_of(m, a_), cap_of(m, b_)
+                    if cp is not None and cq is not None:
+                        Vh = cap_hull_polygon(cp[0], cp[1], cq[0], cq[1])
+                        if Vh is not None:
+                            pieces[m].append(("polygon", Vh))
+        for i, j, k, l in sorted(set(tetrahedra)):
+            for m in (i, j, k, l):
+                o = [x for x in (i, j, k, l) if x != m]
+                pieces[m].append(("polygon", _ccw([u(m, x) for x in o])))
+    if windows and pores and pressure < 0:
+        bw = window_kappa / abs(float(pressure))
+        Dm = np.sqrt(R ** 2 + bw ** 2 + 2 * R * bw * np.cos(np.radians(theta)))
+        for tri in sorted({tuple(sorted(t)) for t in triangles}):
+            tri = list(tri)
+            for b in window_balls(C[tri], R[tri], theta, bw):
+                dist = np.linalg.norm(C - b, axis=1)
+                others = [m for m in range(N) if m not in tri]
+                if any(dist[m] < Dm[m] - 1e-9 for m in others):
+                    continue
+                for m in tri:
+                    cpsi = (R[m] ** 2 + dist[m] ** 2 - bw ** 2) / (2 * R[m] * dist[m])
+                    holes[m].append((b - C[m], float(np.arccos(np.clip(cpsi, -1, 1)))))
     S = np.zeros((N, 3))
     L = np.zeros((N, 3))
     for g in range(N):
         if pieces[g]:
-            S[g], L[g] = union_region(pieces[g], n)
+            S[g], L[g] = union_region(pieces[g], n, holes=holes[g])
     return S, L, {"alpha": alpha, "triangles": triangles,
                   "tetrahedra": sorted(set(tetrahedra))}
