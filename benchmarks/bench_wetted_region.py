@@ -20,10 +20,14 @@ v = V/V_coal 1.2/2/3; filled tetrahedra and rhombi of four grains) this measures
 3. the shape of the wetted regions: the contact line's polar angle about the direction
    to each neighbour (min / max over azimuth), and the share of S*_i inside the caps
    toward the bridged neighbours;
-4. the predictive candidate (no Evolver for the regions, Evolver's P*): each grain's
-   region = union of caps toward its bridged neighbours, half-angles from a rolling gas
-   ball of radius kappa / |P*| (:func:`~capbridge.physics.wetted_region.predict_regions`):
-   error per grain relative to the body's max |F_i|.
+4. predictive candidates (no Evolver for the regions, Evolver's P*;
+   :func:`~capbridge.physics.wetted_region.predict_regions`): the toroidal bridges at
+   P* alone, the hull model, the window model (the default) and variants: error per
+   grain relative to the body's max |F_i|, and the net force of each body;
+5. level-3 checks of a few bodies (``--max-refine 3 --only KEY --collect-only`` adds
+   them to the cache);
+6. (a) the volume the window model implies at Evolver's P* against the body's
+   (:func:`~capbridge.physics.wetted_region.body_volume`).
 
 Evolver results (contact-line polygons, forces, pressures) are cached in
 ``benchmarks/evolver_out/wetted_region.json``; a rerun computes only missing cases.
@@ -307,12 +311,23 @@ def section(cases, a):
     n_ok = sum(1 for c in cases.values() if c["forces"] is not None)
     failed = [k for k, c in cases.items() if c["forces"] is None]
     cpu = sum(c["cpu_s"] for c in cases.values())
-    mach = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    cpu_name = platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu_name = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mach = f"{cpu_name}, {os.cpu_count()} cores, Python {platform.python_version()}"
+    full = json.loads(CACHE.read_text()) if CACHE.exists() else {}
+    cpu_all = sum(c["cpu_s"] for c in full.values())
     out = [SECTION, "",
            f"Command: `python benchmarks/bench_wetted_region.py --max-refine {a.max_refine}"
            f"{' --write' if a.write else ''}` ({mach}; Evolver runs one at a time beside a "
            f"two-process sweep; {len(cases)} bodies, {n_ok} with a result, refinement "
-           f"level {a.max_refine}, {cpu / 60:.1f} CPU min in all, cached in "
+           f"level {a.max_refine}, {cpu / 60:.1f} CPU min; with the level-3 checks "
+           f"{cpu_all / 60:.1f} CPU min; cached in "
            "`benchmarks/evolver_out/wetted_region.json`).  Triplets (gaps d12, d13, d23): "
            + ", ".join(f"{k} {v}" for k, v in TRIPLETS.items())
            + f", theta {'/'.join(f'{t:g}' for t in THETAS)} deg, v = V/V_coal "
@@ -414,9 +429,48 @@ def section(cases, a):
     nno = sum(not x for r in rows for x in r["toroidal_exists"])
     out += ["", f"Bridged grain-neighbour pairs without a toroidal bridge at the body's P* "
             f"(caps at the bridge's pressure minimum instead): {nno} of {nex}."]
+    vol_lines, vol = volumes(cases)
+    out += vol_lines
     out += level3(a)
-    out += ["", verdict(rows), ""]
+    out += ["", verdict(rows, vol), ""]
     return "\n".join(out)
+
+
+def volumes(cases):
+    """(a): the liquid volume the window model implies at Evolver's P*, against the
+    body's volume (Monte Carlo, ``body_volume``; bodies in suction)."""
+    per = {}
+    for k, c in sorted(cases.items()):
+        if c["forces"] is None or not c["pressure"] < 0:
+            continue
+        C = np.asarray(c["centres"], float)
+        n = len(C)
+        pairs = bridged_pairs(C, np.ones(n))
+        Vm = wr.body_volume(C, np.ones(n), c["theta"], c["pressure"], pairs)
+        Vb = wr.body_volume(C, np.ones(n), c["theta"], c["pressure"], pairs,
+                            max_open_gap=-1.0)
+        if n > 3:          # the tetrahedron's interior counts as pore, not bridge
+            Vb = sum(wr.body_volume(C[[i, j]], np.ones(2), c["theta"], c["pressure"],
+                                    [(0, 1)]) for i, j in pairs)
+        per.setdefault((family(c), c["theta"]), []).append((Vm / c["V"], Vb / c["V"]))
+    if not per:
+        return [], {}
+    out = ["", "6. (a) The volume the window model implies at Evolver's P* (toroidal "
+           "bridges + window pores + filled tetrahedra, Monte Carlo with 4e5 samples, "
+           "`body_volume`) over the body's volume, bodies in suction; beside it the "
+           "bridges alone (each a toroidal bridge at P*, counted separately).", "",
+           "| family | theta | bodies | model / true (median, min-max) | bridges / true "
+           "(median, min-max) |", "|---|---|---|---|---|"]
+    allm = []
+    for (f, t), x in sorted(per.items()):
+        m = np.array([y[0] for y in x])
+        b = np.array([y[1] for y in x])
+        allm += list(m)
+        out.append(f"| {f} | {t:g} | {len(x)} | {np.median(m):.2f} ({m.min():.2f}-"
+                   f"{m.max():.2f}) | {np.median(b):.2f} ({b.min():.2f}-{b.max():.2f}) |")
+    closed = [y[0] for (f, _), x in per.items() if f != "triplet open side" for y in x]
+    opened = [y[0] for (f, _), x in per.items() if f == "triplet open side" for y in x]
+    return out, {"closed": _q(closed, (0, 50, 100)), "open": _q(opened, (0, 50, 100))}
 
 
 def level3(a):
@@ -452,7 +506,7 @@ def level3(a):
             "|---|---|---|---|---|---|"] + lines
 
 
-def verdict(rows):
+def verdict(rows, vol):
     def q(sel, name=DEFAULT):
         return _q([r["err " + name] for r in sel])
     neg = [r for r in rows if r["P"] < 0]
@@ -485,12 +539,21 @@ def verdict(rows):
         "the hull fix it).  Unlike Evolver's, the model's forces need not balance: "
         f"|sum F_i| / max |F_i| of a body is a median {100 * sn[0]:.1f} % (max "
         f"{100 * sn[1]:.1f} %) in suction, {100 * sp[0]:.1f} % (max {100 * sp[1]:.1f} %) "
-        "for P* >= 0, to be removed before use in DEM.  It is a usable base in suction, defined for any geometry "
-        "and pressure, not yet for convex bodies.  Next: a pore-piece rule for P* >= 0 "
-        "(there the pore takes the largest share of S*_i, section 3, and the region "
-        "spreads away from the plane of the triangle as v grows), the body's volume at P* from the same pieces (toroidal bridges + pore) to "
-        "close (a), and then the smoothness of the triplet table's residual against "
-        "this base along v and the gaps, as for the doublet base.")
+        "for P* >= 0, to be removed before use in DEM.  (a) At Evolver's P* the model's "
+        "body holds too much liquid: "
+        f"{vol['closed'][1]:.2f} x the true volume (median; {vol['closed'][0]:.2f}-"
+        f"{vol['closed'][2]:.2f}) for closed triangles and clusters, "
+        f"{vol['open'][1]:.2f} x ({vol['open'][0]:.2f}-{vol['open'][2]:.2f}) with an "
+        "open side (its pyramid fills the open side up to the window balls), so "
+        "solving P* from the volume with it would give too much suction (P* too "
+        "negative) and shift the forces: the pressure-volume part (a) is not solved.  "
+        "It is a usable base for the forces at a known P* in suction, defined for any "
+        "geometry and pressure, not yet for convex bodies nor for the volume.  Next: a "
+        "pore-piece rule for P* >= 0 (there the pore takes the largest share of S*_i, "
+        "section 3, and the region spreads away from the plane of the triangle as v "
+        "grows), a pore volume consistent with the windows (the open side's sheet, not "
+        "a filled pyramid) to close (a), and then the smoothness of the triplet table's "
+        "residual against this base along v and the gaps, as for the doublet base.")
 
 
 def main(argv=None):

@@ -218,3 +218,16 @@ def test_window_model_open_triangle_and_its_fallback():
                                    windows=False, open_side="mirror")
     np.testing.assert_allclose(S, Sh, atol=1e-12)
     np.testing.assert_allclose(L, Lh, atol=1e-12)
+
+
+def test_body_volume_doublet_and_pore():
+    """One pair: the toroidal bridge holds the exact doublet's volume at the same P*
+    within the toroidal approximation's error; a triangle's pore adds liquid."""
+    r = solve_doublet(gap=0.0, volume=0.05, theta=30)
+    V = wr.body_volume([[0, 0, 0], [2.0, 0, 0]], [1, 1], 30.0, r["pressure"], [(0, 1)])
+    assert V == pytest.approx(0.05, rel=0.05)
+    C = _triangle(2.0, 70.0)
+    Vb = wr.body_volume(C, np.ones(3), 30.0, -1.5, [(0, 1), (0, 2)], max_open_gap=-1.0)
+    Vp = wr.body_volume(C, np.ones(3), 30.0, -1.5, [(0, 1), (0, 2)])
+    assert Vp > 1.2 * Vb > 0
+    assert np.isnan(wr.body_volume(C, np.ones(3), 30.0, 0.5, [(0, 1), (0, 2)]))
