@@ -430,8 +430,8 @@ def section(cases, a):
     out += ["", f"Bridged grain-neighbour pairs without a toroidal bridge at the body's P* "
             f"(caps at the bridge's pressure minimum instead): {nno} of {nex}."]
     vol_lines, vol = volumes(cases)
-    out += vol_lines
     out += level3(a)
+    out += vol_lines
     out += ["", verdict(rows, vol), ""]
     return "\n".join(out)
 
@@ -531,7 +531,9 @@ def verdict(rows, vol):
         "the far grain as v grows.  (3) Bridges alone at P* are short by a median "
         f"{100 * qb[0]:.0f} % of the body's largest force (max {100 * qb[1]:.0f} %).  The "
         "window model (toroidal caps + per triangle a pore piece through the window "
-        "balls of radius 2/|P*|, Laplace-consistent, no fitted parameter) gives in "
+        "balls of radius 2/|P*|, Laplace-consistent, no fitted parameter, but chosen "
+        "among the variants of section 4 on these same bodies: no held-out set yet) "
+        "gives in "
         f"suction (P* < 0, {len(neg)} grains) a median {100 * qn[0]:.1f} % and max "
         f"{100 * qn[1]:.1f} %; for P* >= 0 ({len(pos)} grains, theta = 60 and the wide "
         f"open sides at large v) a median {100 * qp[0]:.1f} % and max {100 * qp[1]:.1f} % "
