@@ -483,7 +483,9 @@ class LiquidClusters:
         if self._sur is None:
             t0 = time.perf_counter()
             self._sur = load_surrogate(self.table, self.coalescence_table)
-            self.loads += 1
+            if self.split_solver == "table":
+                self.doublet_surrogate()     # read with the triplet table: a split then
+            self.loads += 1                  # costs its solve only (~3 ms)
             self.timings["load_seconds"] += time.perf_counter() - t0
         return self._sur
 
@@ -590,12 +592,14 @@ class LiquidClusters:
                 # gap REUSE_GAP wider (narrower where wider leaves the table; neither:
                 # no slopes, the cluster is looked up at every step)
                 gn = g[ask] / rk[:, None]
-                step = np.zeros((ask.size, 3))
-                for m in range(3):
-                    for h in (-REUSE_GAP, REUSE_GAP):
-                        moved = gn + h * np.eye(3)[m]
-                        inside = sur.covers(*moved.T, t, radii=Rk) & (moved[:, m] >= 0)
-                        step[:, m] = np.where(inside, h, step[:, m])
+                # (direction, gap m, cluster): one covers call for all six moves
+                moved = gn + REUSE_GAP * np.array([-1.0, 1.0])[:, None, None, None] * \
+                    np.eye(3)[None, :, None, :]                          # (2, 3, n, 3)
+                inside = sur.covers(*moved.reshape(-1, 3).T, np.tile(t, 6),
+                                    radii=np.tile(Rk, (6, 1))).reshape(2, 3, -1) & \
+                    (np.diagonal(moved, axis1=1, axis2=3).transpose(0, 2, 1) >= 0)
+                step = np.where(inside[1], REUSE_GAP, np.where(inside[0], -REUSE_GAP,
+                                                                0.0)).T     # (n, 3)
                 side = gn + geo["Rsum"][ask] / rk[:, None]
                 C = np.concatenate([C] + [triangle_centres(*(side + step[:, m, None] *
                                                             np.eye(3)[m]).T)
@@ -1121,13 +1125,16 @@ class LiquidClusters:
 
     def doublet_surrogate(self):
         """The doublet surrogate for the "table" split (the shipped doublet table,
-        fitted at the first split)."""
+        fitted when the triplet table is read, or at the first split)."""
         if self._doublet is None:
             from capbridge.dem.bridges import default_table_path
             from capbridge.surrogate.doublet import DoubletSurrogate
 
             t0 = time.perf_counter()
             self._doublet = DoubletSurrogate().fit(default_table_path())
+            # the equal grains' pressure grid that every split reads, built now
+            self._doublet.predict(0.0, float(self._doublet.volume_[0]), 0.0,
+                                  variables=("pressure",))
             self.timings["load_seconds"] += time.perf_counter() - t0
         return self._doublet
 
