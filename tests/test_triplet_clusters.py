@@ -557,3 +557,51 @@ def test_forces_between_lookups_are_the_expansion_of_the_last_one(sur, doublets)
     assert expected - 1 <= sum(looked) <= expected + 2
     assert max(errors) < 1e-4
     assert max(errors) > 1e-9          # the expansion is not the lookup (test is live)
+
+
+def test_a_refused_candidate_keeps_its_refusal_until_it_moves(sur, doublets):
+    """Two bridges whose coalesced body is beyond the table's v range: refused at the
+    first check (counted once as merge_refused, reason "volume"); at the next checks
+    it is not looked up again while its lookup gaps stay within REUSE_GAP of the
+    refusal's and its liquid is the same (still counted as refused, by the same
+    reason), and it is looked up again once a gap has moved further; a restart keeps
+    the refusal."""
+    from capbridge.dem.triplet_clusters import REUSE_GAP
+
+    v_out = 1.2 * float(sur.v_[-1])
+    g, V = _geometry(sur, v=v_out)
+    pos = triangle_centres(2 + g[0], 2 + g[1], 2 + g[2]) * R
+    m = _model(pos, [(0, 2), (1, 2)], [V / 2, V / 2], 0.0, doublets)
+    calls = []
+
+    class Counted:
+        def predict_vectors(self, *a, **k):
+            calls.append(1)
+            return sur.predict_vectors(*a, **k)
+
+        def __getattr__(self, name):
+            return getattr(sur, name)
+
+    cl = LiquidClusters(GAMMA, surrogate=Counted())
+
+    def check(pos, who=cl):
+        geom, rep = _check(m, pos)
+        assert rep.n_triplets == 1
+        n0 = len(calls)
+        who.step(m, pos, geom, rep)
+        return len(calls) > n0
+
+    assert check(pos) and cl.n == 0
+    assert cl.events["merge_refused"] == 1 and cl.stats["refused_volume"] == 1
+    assert not check(pos)                                     # kept, not looked up
+    assert cl.stats["refused_volume"] == 2 and cl.events["merge_refused"] == 1
+    twin = LiquidClusters(GAMMA, surrogate=Counted())
+    twin.set_state(cl.get_state())
+    assert not check(pos, twin) and twin.stats["refused_volume"] == 3
+    u = (pos[0] - pos[2]) / np.linalg.norm(pos[0] - pos[2])
+    near, far = pos.copy(), pos.copy()
+    near[0] += u * 0.5 * REUSE_GAP * R
+    far[0] += u * 1.5 * REUSE_GAP * R
+    assert not check(near)
+    assert check(far)                                         # moved: looked up again
+    assert cl.events["merge_refused"] == 1 and cl.stats["refused_volume"] == 4

@@ -117,6 +117,8 @@ EVENTS = {
 
 _SEPARATED = 1                # LOWER_ENERGY_STATES code of "separated"
 _PAIRS = ((0, 1), (0, 2), (1, 2))
+#: what a refused merge candidate keeps of its lookup (LiquidClusters._candidates)
+_REFUSAL_KEYS = ("status", "lower", "asked", "v")
 #: between lookups a cluster's pair forces are expanded to first order in its lookup
 #: gaps (gaps / its smallest radius, contacts at 0) about those of its last lookup,
 #: while no gap moved by more than this; the slopes are forward differences over it.
@@ -435,7 +437,7 @@ class LiquidClusters:
         self._clear()
         self.funicular = {"clusters": 0, "grains": 0, "volume": 0.0, "largest": 0}
         self._funicular_keys = set()
-        self._refused_keys = set()
+        self._refused = {}                   # refused merge candidates: their lookup
         self.last = None
         #: gravity on the liquid, set by the engine at every step: (g [m/s^2] (3,),
         #: drho [kg/m^3]) or None (:meth:`gravity_forces`)
@@ -982,25 +984,28 @@ class LiquidClusters:
             gone = np.isin(rows, np.concatenate(fun_rows)).any(axis=1)
             self._remove(gone)
         if not cand:
-            self._refused_keys = set()
+            self._refused = {}
             return
         grains = np.array([g for g, _, _ in cand], np.intp)
         vol = np.array([v for _, _, v in cand])
-        # the candidates' lookup is also the merged clusters' first expansion
         t0 = time.perf_counter()
         self._check_expansion_source()
         geo = self._geometry(model, pos, grains)
-        res = self._answer(geo, vol, True, True)
+        keys = [tuple(g.tolist()) for g in grains]
+        res, looked = self._candidates(geo, vol, keys)
         self.timings["lookup_seconds"] += time.perf_counter() - t0
         ok = status_in(res["status"], HAS_RESULT) & (res["lower"] != _SEPARATED)
-        # refused triplets are counted once, not at every check while they stay refused
-        refused = {tuple(grains[k].tolist()) for k in np.flatnonzero(~ok)}
         self.stats["triplets_live"] += int(ok.sum())
         self.stats["triplets_refused"] += int((~ok).sum())
         for reason, n in _refusal_reasons(res, ok).items():
             self.stats["refused_" + reason] += n
-        self.events["merge_refused"] += len(refused - self._refused_keys)
-        self._refused_keys = refused
+        # refused triplets are counted once, not at every check while they stay refused
+        refused = {keys[k]: self._refused.get(keys[k]) if looked[k] < 0 else
+                   {"gaps": res["lookup_gaps"][k], "volume": float(vol[k]),
+                    **{key: res[key][k] for key in _REFUSAL_KEYS}}
+                   for k in np.flatnonzero(~ok).tolist()}
+        self.events["merge_refused"] += len(refused.keys() - self._refused.keys())
+        self._refused = refused
         for k in np.flatnonzero(ok):
             g, pairs, v = cand[k]
             mem = np.full((3, 2), -1, np.intp)
@@ -1009,10 +1014,42 @@ class LiquidClusters:
             self._append(g, mem, v, step, approx)
             self.events["merged"] += 1
             self.events["approximate"] += int(approx)
-        new = np.flatnonzero(ok)
-        self._store_expansion(np.arange(self.n - new.size, self.n),
-                              {key: x[new] for key, x in geo.items()},
-                              {key: x[new] for key, x in res.items()})
+        new = np.flatnonzero(ok)           # all looked up: a refusal kept is not ok
+        if new.size:
+            self._store_expansion(np.arange(self.n - new.size, self.n),
+                                  {key: x[new] for key, x in geo.items()},
+                                  {key: x[looked[new]] for key, x in res["lookup"].items()})
+
+    def _candidates(self, geo, volume, keys):
+        """The merge candidates' answers (``status``, ``lower``, ``asked``, ``v`` and
+        ``lookup_gaps``, (k,) rows) and the positions of the looked-up ones (``looked``,
+        (k,) int: their row in ``res["lookup"]``, -1 for the others).  A triplet
+        refused at the last check keeps that refusal while its liquid is the same and
+        its lookup gaps moved by at most :data:`REUSE_GAP` since it was looked up (the
+        resolution of the expansions); the others are looked up (with slopes: a merged
+        cluster's first expansion)."""
+        k = len(keys)
+        g = np.maximum(geo["gaps"], 0.0) / geo["r"][:, None]
+        kept = np.zeros(k, bool)
+        for i, key in enumerate(keys):
+            m = self._refused.get(key)
+            kept[i] = m is not None and m["volume"] == volume[i] and \
+                float(np.max(np.abs(g[i] - m["gaps"]))) <= REUSE_GAP
+        ask = np.flatnonzero(~kept)
+        looked = np.full(k, -1, np.intp)
+        looked[ask] = np.arange(ask.size)
+        res = {"status": np.empty(k, np.int8), "lower": np.empty(k, np.int8),
+               "asked": np.empty(k, bool), "v": np.empty(k), "lookup_gaps": g}
+        if ask.size:
+            sub = self._answer({key: x[ask] for key, x in geo.items()}, volume[ask],
+                               True, True)
+            for key in _REFUSAL_KEYS:
+                res[key][ask] = sub[key]
+            res["lookup"] = sub
+        for i in np.flatnonzero(kept):
+            for key in _REFUSAL_KEYS:
+                res[key][i] = self._refused[keys[i]][key]
+        return res, looked
 
     def _follow_bridges(self, model):
         """The live clusters against the model's bridges, from one search of the three
@@ -1208,7 +1245,13 @@ class LiquidClusters:
                 "approx": self.approx.copy(), "events": dict(self.events),
                 "funicular": dict(self.funicular),
                 "funicular_keys": [list(k) for k in sorted(self._funicular_keys)],
-                "refused_keys": [list(k) for k in sorted(self._refused_keys)],
+                "refused_keys": [list(k) for k in sorted(self._refused)],
+                # what each kept of its lookup (None: look it up at the next check)
+                "refused_lookups": [None if self._refused[k] is None else
+                                    {key: (v.tolist() if isinstance(v, np.ndarray) else
+                                           v.item() if isinstance(v, np.generic) else v)
+                                     for key, v in self._refused[k].items()}
+                                    for k in sorted(self._refused)],
                 "stats": {k: (list(v) if isinstance(v, list) else v)
                           for k, v in self.stats.items()},
                 # the expansions, so that a restart looks up where the run would have
@@ -1235,7 +1278,11 @@ class LiquidClusters:
         self.events.update({k: int(v) for k, v in st["events"].items()})
         self.funicular = dict(st["funicular"])
         self._funicular_keys = {tuple(k) for k in st["funicular_keys"]}
-        self._refused_keys = {tuple(k) for k in st.get("refused_keys", [])}
+        keys = [tuple(k) for k in st.get("refused_keys", [])]
+        # saved before the refusals kept their lookups: looked up at the next check
+        kept = st.get("refused_lookups") or [None] * len(keys)
+        self._refused = {k: None if m is None else {**m, "gaps": np.asarray(m["gaps"])}
+                         for k, m in zip(keys, kept)}
         # restart files written before the counters existed start them afresh
         self.stats = _new_stats()
         self.stats.update({k: (list(v) if isinstance(self.stats.get(k), list) else v)
