@@ -7,10 +7,12 @@ Between two lookups of a coalesced triplet the engine takes its pair forces from
 first-order expansion about the last lookup (``LiquidClusters.expansion``,
 ``REUSE_GAP``).  This runs ``bench_yade_triplet.py``'s "on" variant (the 1,000-grain
 packing, theta = 30 deg, coalescence checked every 10 steps) with the step's answer
-checked against a fresh lookup at every step, and reports, over the cluster-steps of
-the timed steps: the error of the grain forces relative to the cluster's largest
+checked against a fresh lookup at every step, and reports, over all the run's
+cluster-steps (warm-up and timed steps): the error of the grain forces (pair forces
+along the centre lines, without the gravity parts) relative to the cluster's largest
 grain force (median, p99, max), the share of cluster-steps that were looked up, the
-steps with a surrogate call, and whether any status differed from the fresh lookup's.
+steps with a lookup of live clusters, and the cluster-steps whose status or
+lower-energy state differs from the fresh lookup's.
 The check itself costs a lookup per step: CPU times here mean nothing (the side-by-side
 timings are ``bench_yade_triplet.py``'s).
 """
@@ -86,7 +88,7 @@ def main(argv=None):
     if not packing.exists():
         raise SystemExit(f"bench_triplet_expansion: error: {packing} not found (run "
                          "benchmarks/bench_yade_triplet.py first)")
-    print("| packing, water | cluster-steps | looked up | steps with a call | force error "
+    print("| packing, water | cluster-steps | looked up | steps with a lookup of live clusters | force error "
           "median / p99 / max | statuses differing | lower-energy state differing |\n"
           "|---|---|---|---|---|---|---|")
     for wc in (float(x) for x in a.water_content.split(",")):
