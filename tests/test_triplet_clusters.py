@@ -605,3 +605,37 @@ def test_a_refused_candidate_keeps_its_refusal_until_it_moves(sur, doublets):
     assert not check(near)
     assert check(far)                                         # moved: looked up again
     assert cl.events["merge_refused"] == 1 and cl.stats["refused_volume"] == 4
+
+
+def test_slopes_of_a_gap_without_a_result_either_way_are_pinned():
+    """Clusters whose triangle moved in one gap lands in a cell without a result and
+    cannot be moved the other way (a contact): that gap gets a zero slope and is
+    pinned (the expansion holds only while it does not move); the other gaps get
+    their secants; a cluster without a result itself gets NaN slopes."""
+    from capbridge.dem.triplet_clusters import PINNED, REUSE_GAP
+
+    class NoRoom:                                   # nothing is inside the table
+        def covers(self, *a, **k):
+            return np.zeros(np.shape(a[0]), bool)
+
+    n = 3                       # pinned in gap 2; pinned in gap 0; no result
+    f0 = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [1.0, 1.0, 1.0]])
+    d = np.array([[0.1, 0.2, 0.3], [-0.3, 0.2, 0.1], [0.0, 0.0, 0.0]])
+    f = np.concatenate([f0, f0 + 7.0, f0 + d, f0 - 0.4])   # moved in gaps 0, 1, 2
+    ok, no = Status.CONVERGED, Status.NO_EQUILIBRIUM
+    status = np.array([ok, ok, no] + [ok, no, ok] + [ok, ok, ok] + [no, ok, ok], np.int8)
+    vc = np.concatenate([[1.0, 2.0, 1.0], [1.2, 9.0, 1.0], [1.1, 2.1, 1.0],
+                         [9.0, 1.9, 1.0]])
+    step = np.full((n, 3), REUSE_GAP)
+    gn = np.zeros((n, 3))
+    out = LiquidClusters._slopes(NoRoom(), f, status, vc, step, gn, gn + 2.0,
+                                 np.ones(n), np.zeros(n), np.ones((n, 3)))
+    np.testing.assert_array_equal(out["toward"][:2], [[0, 0, PINNED], [PINNED, 0, 0]])
+    h = REUSE_GAP
+    np.testing.assert_allclose(out["slope"][0], np.column_stack([np.full(3, 7.0 / h),
+                                                                 d[0] / h, 0 * d[0]]))
+    np.testing.assert_allclose(out["slope"][1], np.column_stack([0 * d[1], d[1] / h,
+                                                                 np.full(3, -0.4 / h)]))
+    np.testing.assert_allclose(out["vc_slope"][:2], [[0.2 / h, 0.1 / h, 0.0],
+                                                     [0.0, 0.1 / h, -0.1 / h]])
+    assert np.isnan(out["slope"][2]).all()

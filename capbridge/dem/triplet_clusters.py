@@ -21,9 +21,9 @@ bridges, at every step.  Between lookups the pair forces are the first-order exp
 of the last lookup in the cluster's gaps (:attr:`LiquidClusters.expansion`, slopes from
 the same call); a cluster is looked up again when a gap has moved by more than
 :data:`REUSE_GAP` (2e-3 r), when its expanded v = V*/V*_coal comes near the table's v
-range, or when its liquid or the gravity changed.  In a 1,000-grain packing this looks
-up 2-4 % of the cluster-steps, with grain forces within 2e-4 (p99) of a lookup at
-every step (``benchmarks/bench_triplet_expansion.py``).
+range, or when its liquid or the gravity changed.  In 1,000-grain packings this looks
+up 1-3 % of the cluster-steps, with grain forces within 2.4e-4 (p99; max 6.9e-4) of a
+lookup at every step (``benchmarks/bench_triplet_expansion.py``).
 
 **Split.**  At every step the cluster's answer (above) is checked; it splits back
 into separate bridges when
@@ -122,10 +122,11 @@ _REFUSAL_KEYS = ("status", "lower", "asked", "v")
 #: between lookups a cluster's pair forces are expanded to first order in its lookup
 #: gaps (gaps / its smallest radius, contacts at 0) about those of its last lookup,
 #: while no gap moved by more than this; the slopes are forward differences over it.
-#: Clusters in a packing move ~3.5e-5 r per step: a lookup every ~50 steps, forces
-#: within ~1e-4 of a lookup at every step (the surrogate is multilinear between refined
-#: nodes: the slopes are secants; benchmarks/RESULTS.md, "per-step cost"); the
-#: statuses, the domain's edges and the energy criterion are decided at this resolution
+#: Clusters in a packing move ~3.5e-5 r per step: 1-3 % of the cluster-steps are
+#: looked up, forces within 2.4e-4 (p99) of a lookup at every step (the surrogate is
+#: multilinear between refined nodes: the slopes are secants; benchmarks/RESULTS.md,
+#: "forces between lookups"); statuses and the energy criterion are decided at this
+#: resolution (the v range's edges at V_MARGIN)
 REUSE_GAP = 2e-3
 #: ... and while its expanded v = V*/V*_coal stays this far (relative) inside the
 #: table's v range
@@ -535,7 +536,7 @@ class LiquidClusters:
         weight shared equally, counted).  With ``slopes``, also ``slope`` (k, 3, 3):
         d f_p / d g_m [N], the pair forces' forward differences in the lookup gaps g
         (gaps / the smallest radius, contacts at 0) over :data:`REUSE_GAP`, from the
-        same call (NaN where a neighbouring point has no result).
+        same call, with ``vc``, ``vc_slope`` and ``toward`` (:meth:`_slopes`).
         """
         t0 = time.perf_counter()
         out = self._answer(self._geometry(model, pos, grains), volume, gravity, slopes)
@@ -687,8 +688,8 @@ class LiquidClusters:
         # hole): no slope in that gap, the expansion holds while the gap stays put
         pinned = ~has[1:].T & has[0][:, None]                              # (n, m)
         toward[pinned] = PINNED
-        fm[pinned.T], vcm[pinned.T] = f[:n][np.nonzero(pinned)[0]], vc[:n][
-            np.nonzero(pinned)[0]]
+        mp, cp = np.nonzero(pinned.T)
+        fm[mp, cp], vcm[mp, cp] = f[:n][cp], vc[:n][cp]                   # zero slopes
         step[pinned] = REUSE_GAP
         h = np.where(step == 0, np.nan, step).T                            # (m, n)
         slope = np.where(has[0][:, None, None], np.transpose(
