@@ -231,3 +231,42 @@ def test_body_volume_doublet_and_pore():
     Vp = wr.body_volume(C, np.ones(3), 30.0, -1.5, [(0, 1), (0, 2)])
     assert Vp > 1.2 * Vb > 0
     assert np.isnan(wr.body_volume(C, np.ones(3), 30.0, 0.5, [(0, 1), (0, 2)]))
+
+
+def test_missing_bridge_none_drops_the_cap_only_where_no_bridge_exists():
+    """theta = 60, gap 0.2: no toroidal bridge in suction (the bridge's pressure stays
+    positive); the default keeps the caps of its pressure minimum, "none" none."""
+    C = [[0, 0, 0], [2.2, 0, 0]]
+    _, _, ok = wr.toroidal_half_angles(2.2, 1.0, 1.0, 60.0, -1.0)
+    assert not ok
+    S, _, _ = wr.predict_regions(C, [1, 1], 60.0, -1.0, [(0, 1)])
+    Sn, Ln, _ = wr.predict_regions(C, [1, 1], 60.0, -1.0, [(0, 1)], missing_bridge="none")
+    assert np.linalg.norm(S[0]) > 0.1
+    np.testing.assert_allclose(Sn, 0)
+    np.testing.assert_allclose(Ln, 0)
+    assert wr.body_volume(C, [1, 1], 60.0, -1.0, [(0, 1)], missing_bridge="none") == 0
+    assert wr.body_volume(C, [1, 1], 60.0, -1.0, [(0, 1)]) > 0
+    # where the bridge exists the option changes nothing
+    C2 = [[0, 0, 0], [2.05, 0, 0]]
+    a = wr.predict_regions(C2, [1, 1], 30.0, -2.0, [(0, 1)])[0]
+    b = wr.predict_regions(C2, [1, 1], 30.0, -2.0, [(0, 1)], missing_bridge="none")[0]
+    np.testing.assert_allclose(a, b, atol=1e-12)
+    with pytest.raises(ValueError, match="missing_bridge"):
+        wr.predict_regions(C2, [1, 1], 30.0, -2.0, [(0, 1)], missing_bridge="zero")
+
+
+@pytest.mark.parametrize("pairs", [[(0, 1), (0, 2), (1, 2)], [(0, 1), (0, 2)]])
+def test_pressure_from_volume_inverts_body_volume(pairs):
+    C = _triangle(2.1, 65.0)
+    kw = dict(n_samples=60_000, seed=3)
+    for P in (-4.0, -1.2):
+        V = wr.body_volume(C, np.ones(3), 20.0, P, pairs, **kw)
+        Pm = wr.pressure_from_volume(C, np.ones(3), 20.0, V, pairs, **kw)
+        # a step function of P (Monte Carlo with fixed samples): a few per cent
+        assert Pm == pytest.approx(P, rel=0.05)
+        # more liquid, less suction
+        Pl = wr.pressure_from_volume(C, np.ones(3), 20.0, 1.3 * V, pairs, **kw)
+        assert Pm < Pl < 0
+    assert np.isnan(wr.pressure_from_volume(C, np.ones(3), 20.0, 1e3, pairs, **kw))
+    with pytest.raises(ValueError, match="bracket"):
+        wr.pressure_from_volume(C, np.ones(3), 20.0, 0.5, pairs, bracket=(-1.0, 0.5))

@@ -44,7 +44,8 @@ import numpy as np
 
 __all__ = ["region_force", "cap_region", "cap_half_angle", "polygon_region",
            "meridian_half_angles", "toroidal_half_angles", "union_region",
-           "cap_hull_polygon", "window_balls", "predict_regions", "body_volume"]
+           "cap_hull_polygon", "window_balls", "predict_regions", "body_volume",
+           "pressure_from_volume"]
 
 
 def region_force(pressure, theta, S, L):
@@ -488,7 +489,8 @@ def window_balls(centres, radii, theta, ball):
 
 def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
                     open_side="mirror", pores=True, windows=True, window_kappa=2.0,
-                    pore_shape="kite", flat_windows=False, n=720):
+                    pore_shape="kite", flat_windows=False, missing_bridge="minimum",
+                    n=720):
     """Wetted regions (S*, L*) of every grain of one coalesced body, without minimisation.
 
     Grain i's region is the union of
@@ -549,6 +551,11 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         triangle on a grain is the lune between the directions to the other two grains,
         cut at latitude +-(90 deg - theta) from the plane of the triangle (flat windows
         meeting the grains at the contact angle) instead of the hull.
+    missing_bridge : {"minimum", "none"}
+        A bridged pair with no toroidal bridge at the body's pressure (its suction is
+        beyond the bridge's minimum pressure, e.g. wide gaps at large theta, where the
+        bridge's pressure never falls below zero): caps at that minimum (the bridge
+        that comes closest), or no cap, the pair's liquid then being the pore's alone.
     n : int
         Boundary resolution (:func:`union_region`).
 
@@ -566,6 +573,8 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
     >>> bool(np.allclose(S[0], cap_region(ai, [1, 0, 0])[0], atol=1e-4))
     True
     """
+    if missing_bridge not in ("minimum", "none"):
+        raise ValueError(f"missing_bridge must be 'minimum' or 'none', got {missing_bridge!r}")
     C = np.asarray(centres, float)
     N = len(C)
     R = np.broadcast_to(np.asarray(radii, float), (N,))
@@ -583,12 +592,16 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         """(axis, half-angle) of grain i's cap toward j, or None."""
         key = (min(i, j), max(i, j))
         if key in alpha:
-            ai, aj, _ = alpha[key]
+            ai, aj, ok = alpha[key]
             a = ai if i < j else aj
+            if not ok and missing_bridge == "none":
+                a = 0.0
         elif open_side == "mirror":
             # the cap of grain i toward its bridged neighbour in the same triangle
             a = max((alpha[(min(i, m), max(i, m))][0 if i < m else 1]
-                     for m in range(N) if (min(i, m), max(i, m)) in alpha), default=0.0)
+                     for m in range(N) if (min(i, m), max(i, m)) in alpha
+                     and (alpha[(min(i, m), max(i, m))][2] or missing_bridge != "none")),
+                    default=0.0)
         elif open_side == "toroidal":
             ai, aj, ok = toroidal_half_angles(np.linalg.norm(C[j] - C[i]), R[min(i, j)],
                                               R[max(i, j)], theta, pressure)
@@ -714,7 +727,7 @@ def _in_tetrahedron(x, V):
 
 
 def body_volume(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
-                window_kappa=2.0, n_samples=400_000, seed=0):
+                window_kappa=2.0, n_samples=400_000, seed=0, missing_bridge="minimum"):
     """Liquid volume V* of the window model's body at pressure P* < 0 (Monte Carlo).
 
     The body is the union, outside every grain, of
@@ -735,6 +748,9 @@ def body_volume(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         Uniform samples in the bounding box of the grains (deterministic ``seed``);
         the standard error is about sqrt(V_box V / n_samples).
     seed : int
+    missing_bridge : {"minimum", "none"}
+        As :func:`predict_regions`: a bridged pair with no toroidal bridge at P*
+        holds the bridge of its pressure minimum, or no bridge (only pore liquid).
 
     Returns
     -------
@@ -762,8 +778,8 @@ def body_volume(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
     bridged = sorted({tuple(sorted(p)) for p in pairs})
     for i, j in bridged:
         d = float(np.linalg.norm(C[j] - C[i]))
-        ai, aj, _ = toroidal_half_angles(d, R[i], R[j], theta, pressure)
-        if not (np.isfinite(ai) and np.isfinite(aj)):
+        ai, aj, ok = toroidal_half_angles(d, R[i], R[j], theta, pressure)
+        if not (np.isfinite(ai) and np.isfinite(aj)) or (not ok and missing_bridge == "none"):
             continue
         rho = (d - R[i] * np.cos(ai) - R[j] * np.cos(aj)) / (np.cos(ai + t) + np.cos(aj + t))
         x0 = R[i] * np.cos(ai) + rho * np.cos(ai + t)
@@ -803,3 +819,42 @@ def body_volume(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
                            for p, q in ((j, k), (j, l), (k, l))):
                         liquid |= _in_tetrahedron(x, C[[i, j, k, l]])
     return box * float(np.mean(liquid & ~solid))
+
+
+def pressure_from_volume(centres, radii, theta, volume, pairs, bracket=(-60.0, -0.02),
+                         xtol=1e-4, **kw):
+    """The window model's pressure P* < 0 at which its body holds ``volume``.
+
+    Solves :func:`body_volume` (``kw`` passed on: ``max_open_gap``, ``window_kappa``,
+    ``n_samples``, ``seed``, ``missing_bridge``) = V* for P* in ``bracket`` by Brent's
+    method on log(-P*); the Monte Carlo samples are the same at every P* (fixed seed),
+    so the volume is a step function of P* with steps of about V_box / n_samples.
+
+    Returns
+    -------
+    float
+        P*; NaN when ``volume`` is not within the model's volumes over the bracket
+        (above the volume at the weakest suction: a body at P* >= 0, where the model
+        has no closed pore, or below that at the strongest).
+
+    >>> P = pressure_from_volume([[0, 0, 0], [2.1, 0, 0]], [1, 1], 30.0, 0.1, [(0, 1)],
+    ...                          n_samples=100_000)
+    >>> V = body_volume([[0, 0, 0], [2.1, 0, 0]], [1, 1], 30.0, P, [(0, 1)],
+    ...                 n_samples=100_000)
+    >>> bool(P < 0 and abs(V - 0.1) < 0.01)
+    True
+    """
+    from scipy.optimize import brentq
+
+    lo, hi = float(bracket[0]), float(bracket[1])
+    if not lo < hi < 0:
+        raise ValueError(f"bracket must be two negative pressures lo < hi, got {bracket}")
+
+    def g(s):
+        return body_volume(centres, radii, theta, -np.exp(s), pairs, **kw) - volume
+
+    a, b = np.log(-hi), np.log(-lo)
+    ga, gb = g(a), g(b)
+    if not (np.isfinite(ga) and np.isfinite(gb)) or ga * gb > 0:
+        return float("nan")
+    return float(-np.exp(brentq(g, a, b, xtol=xtol)))
