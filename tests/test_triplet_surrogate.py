@@ -541,3 +541,63 @@ def test_the_default_coalescence_table_only_where_it_covers(tmp_path, shipped_tr
     wide.to_netcdf(path)
     assert default_coalescence_table(path) is None
     assert default_coalescence_table(shipped_triplet_table, tmp_path / "none.nc") is None
+
+
+def test_auto_refine_fits_the_fine_grid_in_its_budget(shipped_triplet_table, monkeypatch):
+    """refine="auto" (the default) takes DEFAULT_REFINE for the shipped table and, for a
+    table whose fine grid would exceed AUTO_GRID_BYTES, the first coarser entry of
+    AUTO_REFINE that fits (here the budget is shrunk to make the shipped table large);
+    an explicit refine is kept as given."""
+    import capbridge.surrogate.triplet as tri
+
+    ds = read_table(shipped_triplet_table)
+    assert TripletSurrogate().fit(ds).refine_ == tri.DEFAULT_REFINE
+    monkeypatch.setattr(tri, "AUTO_GRID_BYTES", 2e6)
+    sur = TripletSurrogate().fit(ds)
+    assert sur.refine_ != tri.DEFAULT_REFINE and sur.refine_ in tri.AUTO_REFINE
+    n_fine = np.prod([a.n for a in sur.axes_])
+    assert n_fine * (len(tri.GRID_VARIABLES) + 1) * 8 <= 2e6
+    # the previous entry would not have fitted
+    k = tri.AUTO_REFINE.index(sur.refine_)
+    rg, rt, rv = tri.AUTO_REFINE[k - 1]
+    sizes = [ds.sizes[d] for d in ("d12", "d13", "d23", "theta", "v")]
+    steps = (rg, rg, rg, rt, rv)
+    assert np.prod([(n - 1) * s + 1 for n, s in zip(sizes, steps)]) * \
+        (len(tri.GRID_VARIABLES) + 1) * 8 > 2e6
+    assert TripletSurrogate(refine=(1, 2, 2)).fit(ds).refine_ == (1, 2, 2)
+
+
+def test_error_model_of_a_table_computed_over_part_of_its_cube(shipped_triplet_table):
+    """The held-out error model of a table with ``max_bridge_gap`` (what `generate
+    triplet --grid packings` stores at the end of its sweep) is fitted with the method
+    that table allows (auto: linear in the gaps), not refused."""
+    import json
+
+    from capbridge.status import Status as St
+    from capbridge.surrogate.error_model import store_triplet_error_model
+
+    ds = read_table(shipped_triplet_table)
+    cut = ds.copy(deep=True)
+    g = cut.d12.values
+    mid = np.median(np.stack(np.meshgrid(g, g, g, indexing="ij")), axis=0)
+    out = mid > 0.1 + 1e-12
+    for name, var in cut.data_vars.items():
+        if var.dims[:3] == ("d12", "d13", "d23"):
+            if name == "status":
+                var.values[out] = St.NOT_COMPUTED
+            elif np.issubdtype(var.dtype, np.floating):
+                var.values[out] = np.nan
+    hg = np.sort(np.stack([cut[f"holdout_{d}"].values for d in ("d12", "d13", "d23")]), 0)
+    cut = cut.isel(holdout=np.flatnonzero(hg[1] <= 0.1))
+    assert cut.sizes["holdout"] >= 3
+    cut = cut.drop_vars([v for v in cut.data_vars if v.startswith("gravity_holdout")])
+    for k in ("table_sha256", "data_sha256"):
+        cut.attrs.pop(k, None)
+    grid = json.loads(cut.attrs["grid"])
+    grid["max_bridge_gap"] = 0.1
+    cut.attrs["grid"] = json.dumps(grid)
+    with pytest.raises(CapbridgeInputError, match="cubic_tv"):
+        TripletSurrogate(method="cubic").fit(cut)
+    store_triplet_error_model(cut)
+    assert cut.attrs["holdout_n_by_v"] >= 3
+    assert np.isfinite(cut.attrs["holdout_median_rel_error_pair_force_by_v"])

@@ -89,12 +89,13 @@ def store_triplet_error_model(ds, coalescence_table=None):
         ``ds``, with the attributes ``holdout_*`` of the pair forces looked up at the
         total volume (``by_volume``) and at the volume ratio (``by_v``).
     """
-    sur = TripletSurrogate().fit(ds, coalescence_table=coalescence_table)
+    sur = TripletSurrogate(method="auto").fit(ds, coalescence_table=coalescence_table)
     for by in ("volume", "v"):
         _store_holdout(ds.attrs, triplet_holdout_errors(sur, by=by), "pair_force",
                        f"by_{by}")
     ds.attrs["holdout_description"] = (
-        "relative error of the surrogate's pair forces f12, f13, f23 (cubic refinement, "
+        "relative error of the surrogate's pair forces f12, f13, f23 (method auto: cubic, "
+        "linear in the gaps on a table computed over part of its cube; "
         "default settings) against held-out Surface Evolver points one refinement level "
         "finer than the table, at random canonical geometries, theta and v inside the "
         "grid; by_volume: looked up at the total volume (includes the error of V_coal), "

@@ -121,6 +121,11 @@ DEFAULT_REFINE = (4, 12, 6)
 MAX_REFINE = 16
 #: memory bound of the fine grid (values), bytes
 MAX_GRID_BYTES = 400e6
+#: ``refine="auto"``: the first of these whose fine grid stays within AUTO_GRID_BYTES
+#: (the shipped table: DEFAULT_REFINE, 53 MB; the packings grid's 6 x 6 x 6 gaps, 5 angles
+#: and 10 volume ratios: (2, 6, 3), 45 MB, where DEFAULT_REFINE would take 1.2 GB)
+AUTO_REFINE = (DEFAULT_REFINE, (2, 12, 6), (2, 6, 3), (1, 6, 3), (1, 3, 2), (1, 1, 1))
+AUTO_GRID_BYTES = 100e6
 
 _TOL = 1e-12          # relative slack at the table's edges (round-off, not range)
 
@@ -198,9 +203,11 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         the simplex kernel (:class:`_Grid`); ``"linear"`` multilinear on the raw grid
         (32 corners per lookup, slower).  Held-out errors of each:
         ``benchmarks/RESULTS.md``, "Triplet surrogate".
-    refine : int or (int, int, int)
-        Fine-grid steps per table interval along the gaps, theta and v (default
-        :data:`DEFAULT_REFINE`); ignored for ``method="linear"``.
+    refine : "auto", int or (int, int, int)
+        Fine-grid steps per table interval along the gaps, theta and v; ``"auto"``
+        (default): :data:`DEFAULT_REFINE`, or the first of :data:`AUTO_REFINE` whose
+        fine grid fits in :data:`AUTO_GRID_BYTES` for a larger table (the one used is
+        ``refine_``); ignored for ``method="linear"``.
     out_of_range : {"raise", "clip"}
         V* outside the table's range of v = V*/V*_coal: ``"raise"`` (default) a
         CapbridgeInputError naming the value and the range; ``"clip"`` answers above
@@ -211,11 +218,12 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         How the user turns clipping on, named in messages (the CLI passes ``"--clip"``).
     """
 
-    def __init__(self, method="cubic", refine=DEFAULT_REFINE, out_of_range="raise",
+    def __init__(self, method="cubic", refine="auto", out_of_range="raise",
                  clip_hint="out_of_range='clip'"):
         check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
-        _refine3(refine)        # checked here, stored as given (scikit-learn's clone)
+        if not (isinstance(refine, str) and refine == "auto"):
+            _refine3(refine)    # checked here, stored as given (scikit-learn's clone)
         self.refine = refine
         self.method = method
         self.out_of_range = out_of_range
@@ -276,7 +284,18 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                     "method='cubic_tv' (linear in the gaps) or 'auto'")
         if self.method == "auto":
             self.method_ = "cubic" if self.max_bridge_gap_ is None else "cubic_tv"
-        self.refine_ = _refine3(self.refine)
+        sizes = (gaps.size, gaps.size, gaps.size, self.theta_.size, self.v_.size)
+
+        def grid_bytes(r):
+            steps = (r[0],) * 3 + tuple(r[1:])
+            return np.prod([(n - 1) * k + 1 for n, k in zip(sizes, steps)]) * \
+                (len(GRID_VARIABLES) + 1) * 8
+
+        if isinstance(self.refine, str):
+            self.refine_ = next((r for r in AUTO_REFINE if grid_bytes(r) <= AUTO_GRID_BYTES),
+                                AUTO_REFINE[-1])
+        else:
+            self.refine_ = _refine3(self.refine)
         rg, rt, rv = self.refine_ if self.method_ != "linear" else (1, 1, 1)
         self.axes_ = [_FineAxis(gaps, rg), _FineAxis(gaps, rg), _FineAxis(gaps, rg),
                       _FineAxis(self.theta_, rt), _FineAxis(self.v_, rv)]
