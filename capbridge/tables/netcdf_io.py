@@ -472,7 +472,7 @@ def write_table(ds: xr.Dataset, path, *, command: str, solver_settings: Mapping,
     attrs["date_created"] = now
     attrs["git_commit"] = _git_commit()
     attrs["library_versions"] = json.dumps(_library_versions(), sort_keys=True)
-    attrs["grid"] = json.dumps(grid)
+    attrs["grid"] = json.dumps({**_grid_settings(ds.attrs.get("grid")), **grid})
     for key, value in dict(extra_attrs or {}).items():
         attrs[str(key)] = value
     attrs.pop(TABLE_CHECKSUM, None)            # added below, from the written file
@@ -640,6 +640,19 @@ def validate_table(ds: xr.Dataset, source="table",
         if TABLE_CHECKSUM not in ds.attrs:
             _unverified(ds, source, allow_unverified)
     return ds
+
+
+def _grid_settings(text):
+    """The scalar settings of a ``grid`` attribute (JSON), e.g. the triplet grid's
+    ``max_bridge_gap`` (the part of the cube that was computed): kept when the axes
+    are written from the coordinates; lists (axes, under any name) are not."""
+    try:
+        grid = json.loads(str(text))
+    except (TypeError, ValueError):
+        return {}
+    if not isinstance(grid, dict):
+        return {}
+    return {k: v for k, v in grid.items() if isinstance(v, (int, float, str, bool))}
 
 
 def _check_grid_attribute(ds, source):
