@@ -470,6 +470,32 @@ def test_covers_matches_predict_vectors_with_radii(sur):
         assert answered == bool(cov[k]), (k, g[k], R[k])
 
 
+def _cut_at(ds, max_bridge_gap):
+    """A copy of a triplet table computed only where its middle gap is at most
+    ``max_bridge_gap`` (the rest NOT_COMPUTED / NaN, the grid attribute saying so), as
+    `TripletGrid.packings()` tables are; no checksum (an edited copy)."""
+    import json
+
+    from capbridge.status import Status as St
+
+    cut = ds.copy(deep=True)
+    g = cut.d12.values
+    mid = np.median(np.stack(np.meshgrid(g, g, g, indexing="ij")), axis=0)
+    out = mid > max_bridge_gap + 1e-12
+    for name, var in cut.data_vars.items():
+        if var.dims[:3] == ("d12", "d13", "d23"):
+            if name == "status":
+                var.values[out] = St.NOT_COMPUTED
+            elif np.issubdtype(var.dtype, np.floating):
+                var.values[out] = np.nan
+    for k in ("table_sha256", "data_sha256"):
+        cut.attrs.pop(k, None)
+    grid = json.loads(cut.attrs["grid"])
+    grid["max_bridge_gap"] = max_bridge_gap
+    cut.attrs["grid"] = json.dumps(grid)
+    return cut
+
+
 def test_a_table_computed_over_part_of_its_cube(shipped_triplet_table):
     """A table made on a grid with ``max_bridge_gap`` (TripletGrid.packings(): the two
     smaller gaps up to it, the open side over the whole axis) stores the rest of its
@@ -477,29 +503,12 @@ def test_a_table_computed_over_part_of_its_cube(shipped_triplet_table):
     refuses them in one line, and answers inside exactly as the full table does where
     no cell touches the missing nodes (linear: local).  Here: the shipped table cut at
     max_bridge_gap = 0.1."""
-    import json
-
     from capbridge.tables.netcdf_io import read_table
-    from capbridge.status import Status as St
 
     ds = read_table(shipped_triplet_table)
-    cut = ds.copy(deep=True)
-    g = cut.d12.values
-    mid = np.median(np.stack(np.meshgrid(g, g, g, indexing="ij")), axis=0)
-    out = mid > 0.1 + 1e-12
-    for name, var in cut.data_vars.items():
-        if var.dims[:3] == ("d12", "d13", "d23"):
-            if name == "status":
-                var.values[out] = St.NOT_COMPUTED
-            elif np.issubdtype(var.dtype, np.floating):
-                var.values[out] = np.nan
+    cut = _cut_at(ds, 0.1)
     cut = cut.drop_vars([v for v in cut.data_vars
                          if v.startswith(("holdout", "gravity_holdout"))])
-    for k in ("table_sha256", "data_sha256"):        # an edited copy carries no checksum
-        cut.attrs.pop(k, None)
-    grid = json.loads(cut.attrs["grid"])
-    grid["max_bridge_gap"] = 0.1
-    cut.attrs["grid"] = json.dumps(grid)
     full = TripletSurrogate(method="linear").fit(ds)
     sur = TripletSurrogate(method="linear").fit(cut)
     assert sur.max_bridge_gap_ == 0.1 and full.max_bridge_gap_ is None
@@ -576,31 +585,16 @@ def test_error_model_of_a_table_computed_over_part_of_its_cube(shipped_triplet_t
     the surrogate fitted from the file is the one the error model describes."""
     import json
 
-    from capbridge.status import Status as St
     from capbridge.surrogate.error_model import store_triplet_error_model
 
-    ds = read_table(shipped_triplet_table)
-    cut = ds.copy(deep=True)
-    g = cut.d12.values
-    mid = np.median(np.stack(np.meshgrid(g, g, g, indexing="ij")), axis=0)
-    out = mid > 0.1 + 1e-12
-    for name, var in cut.data_vars.items():
-        if var.dims[:3] == ("d12", "d13", "d23"):
-            if name == "status":
-                var.values[out] = St.NOT_COMPUTED
-            elif np.issubdtype(var.dtype, np.floating):
-                var.values[out] = np.nan
+    cut = _cut_at(read_table(shipped_triplet_table), 0.1)
     hg = np.sort(np.stack([cut[f"holdout_{d}"].values for d in ("d12", "d13", "d23")]), 0)
     cut = cut.isel(holdout=np.flatnonzero(hg[1] <= 0.1))
     assert cut.sizes["holdout"] >= 3
     cut = cut.drop_vars([v for v in cut.data_vars if "gravity" in v])   # no response
     cut = cut.drop_dims([d for d in cut.dims if "gravity" in d])
-    for k in list(cut.attrs):
-        if k in ("table_sha256", "data_sha256") or k.startswith("gravity"):
-            cut.attrs.pop(k)
-    grid = json.loads(cut.attrs["grid"])
-    grid["max_bridge_gap"] = 0.1
-    cut.attrs["grid"] = json.dumps(grid)
+    for k in [k for k in cut.attrs if k.startswith("gravity")]:
+        cut.attrs.pop(k)
     with pytest.raises(CapbridgeInputError, match="cubic_tv"):
         TripletSurrogate(method="cubic").fit(cut)
     store_triplet_error_model(cut)
