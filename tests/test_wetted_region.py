@@ -212,12 +212,16 @@ def test_window_model_open_triangle_and_its_fallback():
     S0, _, _ = wr.predict_regions(C, np.ones(3), 30.0, -1.5, pairs, pores=False)
     assert np.all(np.linalg.norm(S, axis=1) > np.linalg.norm(S0, axis=1))
     np.testing.assert_allclose(F.sum(axis=0), 0, atol=0.05 * np.abs(F).max())
-    # P* >= 0: no window ball; the model is the hull with mirror caps
-    S, L, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs)
+    # P* >= 0, positive_pressure="hull" (the model before 2026-11-27): no window ball;
+    # the hull with mirror caps
+    S, L, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs, positive_pressure="hull")
     Sh, Lh, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs, pore_shape="hull",
                                    windows=False, open_side="mirror")
     np.testing.assert_allclose(S, Sh, atol=1e-12)
     np.testing.assert_allclose(L, Lh, atol=1e-12)
+    # the default continues the windows through P* >= 0 as flat ones: not the hull
+    Sf, _, _ = wr.predict_regions(C, np.ones(3), 60.0, 0.8, pairs)
+    assert np.abs(Sf - Sh).max() > 0.05
 
 
 def test_body_volume_doublet_and_pore():
@@ -235,11 +239,11 @@ def test_body_volume_doublet_and_pore():
 
 def test_missing_bridge_none_drops_the_cap_only_where_no_bridge_exists():
     """theta = 60, gap 0.2: no toroidal bridge in suction (the bridge's pressure stays
-    positive); the default keeps the caps of its pressure minimum, "none" none."""
+    positive); "minimum" keeps the caps of its pressure minimum, "none" none."""
     C = [[0, 0, 0], [2.2, 0, 0]]
     _, _, ok = wr.toroidal_half_angles(2.2, 1.0, 1.0, 60.0, -1.0)
     assert not ok
-    S, _, _ = wr.predict_regions(C, [1, 1], 60.0, -1.0, [(0, 1)])
+    S, _, _ = wr.predict_regions(C, [1, 1], 60.0, -1.0, [(0, 1)], missing_bridge="minimum")
     Sn, Ln, _ = wr.predict_regions(C, [1, 1], 60.0, -1.0, [(0, 1)], missing_bridge="none")
     assert np.linalg.norm(S[0]) > 0.1
     np.testing.assert_allclose(Sn, 0)
@@ -270,3 +274,85 @@ def test_pressure_from_volume_inverts_body_volume(pairs):
     assert np.isnan(wr.pressure_from_volume(C, np.ones(3), 20.0, 1e3, pairs, **kw))
     with pytest.raises(ValueError, match="bracket"):
         wr.pressure_from_volume(C, np.ones(3), 20.0, 0.5, pairs, bracket=(-1.0, 0.5))
+
+
+def _closed_triplet_forces(gaps, theta, P, **kw):
+    from capbridge.solvers.triplet import triplet_geometry
+    C = triplet_geometry(*gaps).centres
+    S, L, _ = wr.predict_regions(C, np.ones(3), theta, P, [(0, 1), (0, 2), (1, 2)], n=360,
+                                 **kw)
+    return wr.region_force(P, theta, S, L)
+
+
+def test_toroidal_fold_is_where_the_bridge_stops_existing():
+    for gap, theta in ((0.2, 0.0), (0.1, 40.0), (0.15, 20.0)):
+        ai, aj, Pf = wr.toroidal_fold(2.0 + gap, 1.0, 1.0, theta)
+        assert Pf < 0 and ai == pytest.approx(aj)
+        assert wr.toroidal_half_angles(2.0 + gap, 1.0, 1.0, theta, Pf + 0.01)[2]
+        assert not wr.toroidal_half_angles(2.0 + gap, 1.0, 1.0, theta, Pf - 0.01)[2]
+        # the caps are continuous across the fold (to the curvature scan's resolution)
+        a_in = wr.pair_caps(2.0 + gap, 1.0, 1.0, theta, Pf + 1e-3)[0]
+        a_out = wr.pair_caps(2.0 + gap, 1.0, 1.0, theta, Pf - 1e-3)[0]
+        assert abs(a_in - a_out) < np.radians(0.5)
+    # theta = 60, gap 0.2: the global minimum over the scan is at its wide end (62 deg
+    # caps, the "minimum" rule); the fold is the first minimum from rupture
+    assert np.degrees(wr.toroidal_half_angles(2.2, 1.0, 1.0, 60.0, -1.0)[0]) > 55
+    assert 15 < np.degrees(wr.toroidal_fold(2.2, 1.0, 1.0, 60.0)[0]) < 30
+
+
+def test_torus_reach_limits():
+    for theta in (0.0, 30.0, 60.0):
+        bi, bj = wr.torus_reach(2.1, 1.0, 1.0, theta, 1e6)     # flat: 90 deg - theta
+        assert np.degrees(bi) == pytest.approx(90.0 - theta, abs=1e-3)
+        assert bi == pytest.approx(bj)
+    # shrinks with the ball, zero once the torus passes through the gap
+    b = [wr.torus_reach(2.1, 1.0, 1.0, 30.0, x)[0] for x in (10.0, 1.0, 0.3, 0.1, 0.01)]
+    assert all(x >= y for x, y in zip(b, b[1:])) and b[0] > b[2] and b[-1] == 0.0
+
+
+def test_reach_caps_are_continuous_and_shrink_beyond_the_fold():
+    """Beyond the fold the caps shrink with the suction and vanish where the gas torus
+    of the body's curvature passes through the gap; in suction they never exceed the
+    fold's, and where the bridge exists the rule changes nothing."""
+    d, th = 2.2, 0.0
+    fi, _, Pf = wr.toroidal_fold(d, 1.0, 1.0, th)
+    a = [wr.pair_caps(d, 1.0, 1.0, th, P)[0] for P in (Pf - 0.01, -3.0, -6.0, -12.0, -60.0)]
+    assert all(x >= y for x, y in zip(a, a[1:])) and a[0] <= fi and a[-1] == 0.0
+    assert a[0] == pytest.approx(fi)
+    for mb in ("reach", "fold", "minimum", "none"):
+        assert wr.pair_caps(2.05, 1.0, 1.0, 30.0, -2.0, mb) == \
+            wr.toroidal_half_angles(2.05, 1.0, 1.0, 30.0, -2.0)
+
+
+@pytest.mark.parametrize("theta,P", [(0.0, -2.0), (60.0, -1.0)])
+def test_forces_continuous_in_the_gap_across_the_bridge_existence_limit(theta, P):
+    """A closed triplet whose third gap crosses the gap where that pair's toroidal
+    bridge stops existing at P*: the default's grain forces move by little per step of
+    the gap; "none" (no cap without a bridge) and, at theta = 60, "minimum" jump."""
+    gaps = np.linspace(0.05, 0.2, 31)
+
+    def max_step(**kw):
+        F = [_closed_triplet_forces((0.05, 0.05, g), theta, P, **kw) for g in gaps]
+        return max(np.abs(F[i + 1] - F[i]).max() / np.abs(F[i]).max()
+                   for i in range(len(F) - 1))
+
+    assert max_step() < 0.035
+    assert max_step(missing_bridge="none") > 0.06
+    if theta == 60.0:
+        assert max_step(missing_bridge="minimum") > 0.3
+
+
+@pytest.mark.parametrize("gaps,theta", [((0.1, 0.1, 0.1), 30.0), ((0.0, 0.0, 0.3), 30.0),
+                                        ((0.05, 0.1, 0.2), 60.0)])
+def test_forces_continuous_through_zero_pressure(gaps, theta):
+    """The window pieces continue through P* = 0 as flat windows: the forces just below
+    and just above P* = 0 agree; the old hull at P* >= 0 jumps by > 10 %."""
+    def jump(**kw):
+        a = _closed_triplet_forces(gaps, theta, -1e-4, **kw)
+        b = _closed_triplet_forces(gaps, theta, 1e-4, **kw)
+        return np.abs(a - b).max() / np.abs(a).max()
+
+    assert jump() < 1e-3
+    assert jump(positive_pressure="hull") > 0.1
+    with pytest.raises(ValueError, match="positive_pressure"):
+        _closed_triplet_forces(gaps, theta, 0.5, positive_pressure="convex")

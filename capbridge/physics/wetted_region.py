@@ -43,7 +43,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["region_force", "cap_region", "cap_half_angle", "polygon_region",
-           "meridian_half_angles", "toroidal_half_angles", "union_region",
+           "meridian_half_angles", "toroidal_half_angles", "toroidal_fold",
+           "window_radius", "torus_reach", "pair_caps", "union_region",
            "cap_hull_polygon", "window_balls", "predict_regions", "body_volume",
            "pressure_from_volume"]
 
@@ -291,6 +292,131 @@ def toroidal_half_angles(distance, ri, rj, theta, pressure):
     return float(a[m]), float(b[m]), False
 
 
+def toroidal_fold(distance, ri, rj, theta):
+    """The fold of the toroidal bridge family: its least pressure on the stable side.
+
+    Following the bridges of :func:`meridian_half_angles` from rupture (the smallest
+    caps, P* -> +inf) toward wider caps, the pressure falls to a minimum and rises again
+    (or falls until the family ends); the first minimum is the fold, where the stable
+    bridge ceases to exist under more suction.  Unlike the global minimum over the
+    scanned curvatures (which ``toroidal_half_angles`` returns when no bridge exists),
+    the fold moves continuously with the gap and theta.
+
+    Returns
+    -------
+    alpha_i, alpha_j : float
+        The fold's half-angles [rad] (NaN where no bridge of the family exists).
+    pressure : float
+        P* at the fold.
+
+    >>> ai, aj, Pf = toroidal_fold(2.2, 1.0, 1.0, 0.0)
+    >>> round(float(np.degrees(ai)), 0), round(Pf, 2)
+    (21.0, -1.51)
+    """
+    a, b, yn = meridian_half_angles(distance, ri, rj, theta, _K_GRID)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Pk = 1.0 / yn - _K_GRID
+    ok = np.isfinite(Pk) & np.isfinite(a) & np.isfinite(b) & (yn > 0)
+    idx = np.where(ok)[0]
+    if not len(idx):
+        return np.nan, np.nan, np.nan
+    top = idx[-1]                        # the rupture end (the largest curvature)
+    m = top
+    while m - 1 >= 0 and ok[m - 1]:
+        m -= 1
+    seg = np.arange(top, m - 1, -1)      # from rupture toward wider caps
+    # slope of P* per unit curvature walked (negative while P* falls)
+    s = (Pk[seg[1:]] - Pk[seg[:-1]]) / (_K_GRID[seg[:-1]] - _K_GRID[seg[1:]])
+    up = np.where(s >= 0)[0]
+    if len(up):                          # the first minimum
+        f = seg[up[0]]
+    else:                                # none: the first place it falls slowest
+        mx = np.where((s[1:-1] > s[:-2]) & (s[1:-1] >= s[2:]))[0]
+        f = seg[mx[0] + 1] if len(mx) else seg[-1]
+    return float(a[f]), float(b[f]), float(Pk[f])
+
+
+#: window-ball radius standing for P* >= 0 (flat windows), times r
+_B_FLAT = 1e6
+
+
+def window_radius(pressure, kappa=2.0):
+    """Radius kappa / |P*| of the window balls (gas spheres of the body's curvature),
+    continued through P* >= 0 by a very large ball (a flat window, the limit P* -> 0-)."""
+    return kappa / max(-float(pressure), kappa / _B_FLAT)
+
+
+def torus_reach(distance, ri, rj, theta, ball):
+    """How far the liquid between two grains reaches toward their line of centres.
+
+    A gas torus of tube radius ``ball`` (the body's window radius, :func:`window_radius`)
+    around the line of centres, meeting both grains at the contact angle: in a plane
+    through the line of centres a circle whose centre is at
+    D_k = sqrt(R_k^2 + b^2 + 2 R_k b cos(theta)) from centre k.  Returns the polar angles
+    (about the direction to the other grain) [rad] at which it meets each grain, >= 0; 0
+    where the torus passes through the gap (its circle reaches the line of centres, or
+    fits between the grains).  A very large ball gives the flat limit (90 deg - theta
+    for equal grains); the angles shrink as the ball does.
+
+    >>> bi, bj = torus_reach(2.2, 1.0, 1.0, 30.0, 1e6)
+    >>> round(float(np.degrees(bi)), 3)
+    60.0
+    >>> torus_reach(2.2, 1.0, 1.0, 0.0, 0.05)
+    (0.0, 0.0)
+    """
+    d, b, t = float(distance), float(ball), np.radians(theta)
+    Di = np.sqrt(ri ** 2 + b ** 2 + 2 * ri * b * np.cos(t))
+    Dj = np.sqrt(rj ** 2 + b ** 2 + 2 * rj * b * np.cos(t))
+    x0 = (Di ** 2 - Dj ** 2 + d ** 2) / (2 * d)
+    h2 = Di ** 2 - x0 ** 2
+    if h2 <= 0:
+        return 0.0, 0.0
+    h = np.sqrt(h2)
+    out = []
+    for R, D, x in ((ri, Di, x0), (rj, Dj, d - x0)):
+        psi = np.arccos(np.clip((R ** 2 + D ** 2 - b ** 2) / (2 * R * D), -1, 1))
+        out.append(max(float(np.arctan2(h, x) - psi), 0.0))
+    return out[0], out[1]
+
+
+def pair_caps(distance, ri, rj, theta, pressure, missing_bridge="reach", window_kappa=2.0):
+    """Half-angles of a bridged pair's caps in a coalesced body at pressure P*.
+
+    The toroidal bridge's (:func:`toroidal_half_angles`) where it exists at P*.  Where
+    it does not (more suction than its fold, :func:`toroidal_fold`), by
+    ``missing_bridge``:
+
+    * ``"reach"``: the fold's caps, but no wider than the reach beta(P*) of the gas
+      torus of the body's window radius (:func:`torus_reach`, :func:`window_radius`):
+      in suction beta exceeds every existing bridge's caps, so the caps are the fold's
+      at the fold and shrink as the suction grows, to zero where a gas torus of the
+      body's curvature passes through the gap (continuous in P*, the gap and theta;
+      where the fold is at P* > 0 the caps jump there from beta to the fold's);
+    * ``"fold"``: the fold's caps;
+    * ``"minimum"``: the caps at the least pressure over the scanned curvatures
+      (:func:`toroidal_half_angles`; may jump with the gap and theta where that least
+      pressure is at the scan's end);
+    * ``"none"``: no cap.
+
+    Returns
+    -------
+    alpha_i, alpha_j : float
+        [rad]; NaN where the pair has no bridge of any kind.
+    exists : bool
+        Whether the toroidal bridge exists at P*.
+    """
+    ai, aj, ok = toroidal_half_angles(distance, ri, rj, theta, pressure)
+    if ok or missing_bridge == "minimum":
+        return ai, aj, ok
+    if missing_bridge == "none":
+        return 0.0, 0.0, False
+    fi, fj, Pf = toroidal_fold(distance, ri, rj, theta)
+    if missing_bridge == "fold" or not np.isfinite(fi):
+        return fi, fj, False
+    bi, bj = torus_reach(distance, ri, rj, theta, window_radius(pressure, window_kappa))
+    return min(fi, bi), min(fj, bj), False
+
+
 def _cap_boundary(e, alpha, n):
     """n + 1 points (closed) of a cap's circle, counter-clockwise seen from outside."""
     h = np.array([1.0, 0.0, 0.0]) if abs(e[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -489,23 +615,25 @@ def window_balls(centres, radii, theta, ball):
 
 def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
                     open_side="mirror", pores=True, windows=True, window_kappa=2.0,
-                    pore_shape="kite", flat_windows=False, missing_bridge="minimum",
-                    n=720):
+                    pore_shape="kite", flat_windows=False, missing_bridge="reach",
+                    positive_pressure="flat", n=720):
     """Wetted regions (S*, L*) of every grain of one coalesced body, without minimisation.
 
     Grain i's region is the union of
 
     * a cap toward each bridged neighbour j (``pairs``), its half-angle that of the
       toroidal bridge at the body's pressure (:func:`toroidal_half_angles`; beyond the
-      bridge's minimum pressure, the caps at that minimum);
+      bridge's fold, caps that shrink with the suction, :func:`pair_caps`);
     * for each triangle of the body (i bridged to j and k, the gap j-k at most
       ``max_open_gap``) a pore piece on each of its grains (``pore_shape``): by default
       (``"kite"``, with ``windows``) in suction the spherical polygon through the
       directions to the other two grains and to the triangle's window balls (gas
       spheres of radius 2 / |P*|, the Laplace radius of a spherical window, touching
       the three grains at the contact angle, :func:`window_balls`), less the balls'
-      dry discs; where no window ball exists (P* >= 0, or a ball that passes through
-      the triangle), the spherical convex hull of the caps toward the other two
+      dry discs, continued through P* >= 0 by flat windows (the limit P* -> 0-, so that
+      the regions are continuous in P*; ``positive_pressure``); where no window ball
+      exists (a ball that passes through the triangle, or one that would cut another
+      grain), the spherical convex hull of the caps toward the other two
       (:func:`cap_hull_polygon`), with, on an open side's grains, a cap toward the far
       grain (``open_side``);
     * for each filled tetrahedron (four grains, six bridged pairs), the spherical
@@ -536,7 +664,8 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         False: the caps alone (no triangle or tetrahedron pieces), the bridges of the
         body at its pressure.
     windows : bool
-        In suction (P* < 0), take out of each grain the dry discs of the window balls
+        In suction (P* < 0; at any P* with ``positive_pressure="flat"``), take out of
+        each grain the dry discs of the window balls
         (:func:`window_balls`) of every triangle of the body: gas spheres of radius
         ``window_kappa / |P*|`` (2: a spherical window, Laplace-consistent) touching
         the triangle's three grains, except those that would cut another grain of the
@@ -551,11 +680,19 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         triangle on a grain is the lune between the directions to the other two grains,
         cut at latitude +-(90 deg - theta) from the plane of the triangle (flat windows
         meeting the grains at the contact angle) instead of the hull.
-    missing_bridge : {"minimum", "none"}
+    missing_bridge : {"reach", "fold", "minimum", "none"}
         A bridged pair with no toroidal bridge at the body's pressure (its suction is
-        beyond the bridge's minimum pressure, e.g. wide gaps at large theta, where the
-        bridge's pressure never falls below zero): caps at that minimum (the bridge
-        that comes closest), or no cap, the pair's liquid then being the pore's alone.
+        beyond the bridge's fold, e.g. wide gaps at large theta, where the bridge's
+        pressure never falls below zero), :func:`pair_caps`: the fold's caps, no wider
+        than the reach of a gas torus of the body's curvature ("reach", continuous in
+        the gap and P*), the fold's caps ("fold"), the caps at the least pressure over
+        the scanned curvatures ("minimum", the model before 2026-11-27: it jumps with
+        the gap), or no cap ("none"), the pair's liquid then being the pore's alone.
+    positive_pressure : {"flat", "hull"}
+        The pore piece of a triangle at P* >= 0: the window construction with flat
+        windows (balls of radius :func:`window_radius`, the limit of the suction's
+        pieces as P* -> 0-: continuous through P* = 0), or, as before 2026-11-27, the
+        convex hull of the caps (or the lune of ``flat_windows``), which jumps there.
     n : int
         Boundary resolution (:func:`union_region`).
 
@@ -573,16 +710,19 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
     >>> bool(np.allclose(S[0], cap_region(ai, [1, 0, 0])[0], atol=1e-4))
     True
     """
-    if missing_bridge not in ("minimum", "none"):
-        raise ValueError(f"missing_bridge must be 'minimum' or 'none', got {missing_bridge!r}")
+    if missing_bridge not in ("reach", "fold", "minimum", "none"):
+        raise ValueError("missing_bridge must be 'reach', 'fold', 'minimum' or 'none', "
+                         f"got {missing_bridge!r}")
+    if positive_pressure not in ("flat", "hull"):
+        raise ValueError(f"positive_pressure must be 'flat' or 'hull', got {positive_pressure!r}")
     C = np.asarray(centres, float)
     N = len(C)
     R = np.broadcast_to(np.asarray(radii, float), (N,))
     bridged = {tuple(sorted(p)) for p in pairs}
     alpha = {}
     for i, j in sorted(bridged):
-        alpha[(i, j)] = toroidal_half_angles(np.linalg.norm(C[j] - C[i]), R[i], R[j],
-                                             theta, pressure)
+        alpha[(i, j)] = pair_caps(np.linalg.norm(C[j] - C[i]), R[i], R[j], theta, pressure,
+                                  missing_bridge, window_kappa)
 
     def u(i, j):
         v = C[j] - C[i]
@@ -594,13 +734,10 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
         if key in alpha:
             ai, aj, ok = alpha[key]
             a = ai if i < j else aj
-            if not ok and missing_bridge == "none":
-                a = 0.0
         elif open_side == "mirror":
             # the cap of grain i toward its bridged neighbour in the same triangle
             a = max((alpha[(min(i, m), max(i, m))][0 if i < m else 1]
-                     for m in range(N) if (min(i, m), max(i, m)) in alpha
-                     and (alpha[(min(i, m), max(i, m))][2] or missing_bridge != "none")),
+                     for m in range(N) if (min(i, m), max(i, m)) in alpha),
                     default=0.0)
         elif open_side == "toroidal":
             ai, aj, ok = toroidal_half_angles(np.linalg.norm(C[j] - C[i]), R[min(i, j)],
@@ -610,12 +747,17 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
             a = 0.0
         return (u(i, j), float(a)) if np.isfinite(a) else None
 
-    pieces = [[] for _ in range(N)]
-    for i, j in sorted(bridged):
-        for g, h in ((i, j), (j, i)):
-            c = cap_of(g, h)
-            if c is not None and c[1] > 0:
-                pieces[g].append(("cap", c))
+    def cap_pieces():
+        """Per grain, the caps toward its bridged neighbours."""
+        out = [[] for _ in range(N)]
+        for i, j in sorted(bridged):
+            for g, h in ((i, j), (j, i)):
+                c = cap_of(g, h)
+                if c is not None and c[1] > 0:
+                    out[g].append(("cap", c))
+        return out
+
+    pieces = cap_pieces()
     neigh = {i: sorted({j for p in bridged for j in p if i in p} - {i}) for i in range(N)}
     triangles = []
     for i in range(N):
@@ -647,27 +789,25 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
                         pieces[i].append(("polygon", _ccw([u(i, j), u(i, k), u(i, l)])))
                         tetrahedra.append(tuple(sorted((i, j, k, l))))
     holes = [[] for _ in range(N)]
-    if windows and pores and pore_shape == "kite" and (pressure < 0 or flat_windows):
+    # window balls: in suction, and at P* >= 0 as flat windows (positive_pressure="flat")
+    use_balls = windows and pores and (pressure < 0 or positive_pressure == "flat")
+    bw = (window_radius(pressure, window_kappa) if positive_pressure == "flat"
+          else window_kappa / max(abs(float(pressure)), 1e-12))
+    Dm = np.sqrt(R ** 2 + bw ** 2 + 2 * R * bw * np.cos(np.radians(theta)))
+    if windows and pores and pore_shape == "kite" and (use_balls or flat_windows):
         # replace each triangle's hull pieces by polygons through the window balls
-        bw = window_kappa / max(abs(float(pressure)), 1e-12)
-        Dm = np.sqrt(R ** 2 + bw ** 2 + 2 * R * bw * np.cos(np.radians(theta)))
-        pieces = [[] for _ in range(N)]
-        for i, j in sorted(bridged):
-            for g, h in ((i, j), (j, i)):
-                c = cap_of(g, h)
-                if c is not None and c[1] > 0:
-                    pieces[g].append(("cap", c))
+        pieces = cap_pieces()
         for i, j, k in triangles:
             balls = []
             for b in (window_balls(C[[i, j, k]], R[[i, j, k]], theta, bw)
-                      if pressure < 0 else []):
+                      if use_balls else []):
                 dist = np.linalg.norm(C - b, axis=1)
                 if not any(dist[m] < Dm[m] - 1e-9 for m in range(N) if m not in (i, j, k)):
                     balls.append(b)
             for m, a_, b_ in ((i, j, k), (j, i, k), (k, i, j)):
                 if m != i and (min(j, k), max(j, k)) in bridged:
                     continue            # a closed triangle: each grain once, as i
-                if not balls and flat_windows and pressure >= 0:
+                if not balls and flat_windows and pressure >= 0 and not use_balls:
                     # flat windows: the grains cut the planes at +-cos(theta) from the
                     # plane of the centres at the contact angle; the pore piece spans
                     # the lune between the directions to the other two grains up to
@@ -695,9 +835,7 @@ def predict_regions(centres, radii, theta, pressure, pairs, max_open_gap=1.0,
             for m in (i, j, k, l):
                 o = [x for x in (i, j, k, l) if x != m]
                 pieces[m].append(("polygon", _ccw([u(m, x) for x in o])))
-    if windows and pores and pressure < 0:
-        bw = window_kappa / abs(float(pressure))
-        Dm = np.sqrt(R ** 2 + bw ** 2 + 2 * R * bw * np.cos(np.radians(theta)))
+    if use_balls:
         for tri in sorted({tuple(sorted(t)) for t in triangles}):
             tri = list(tri)
             for b in window_balls(C[tri], R[tri], theta, bw):
