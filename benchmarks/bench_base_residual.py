@@ -45,6 +45,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(HERE))
 
 from capbridge.physics import wetted_region as wr  # noqa: E402
+from bench_wetted_region import _q, bridged_pairs, level3_pairs  # noqa: E402
 
 CACHE = HERE / "evolver_out" / "base_heldout.json"
 SECTION = "### The window model as a base: held-out bodies and the triplet table's residual"
@@ -143,25 +144,12 @@ def collect(budget_s=None, level3=()):
 # the window model's forces
 # ---------------------------------------------------------------------------------------
 
-def bridged_pairs(centres, radii, max_gap=0.2):
-    """Pairs whose surface gap is at most ``max_gap`` (as ``bench_wetted_region``)."""
-    n = len(centres)
-    return [(i, j) for i in range(n) for j in range(i + 1, n)
-            if np.linalg.norm(centres[i] - centres[j]) - radii[i] - radii[j] <= max_gap + 1e-9]
-
-
 def model_forces(C, theta, P, **kw):
     """The window model's grain forces F*_i (equal unit radii) at pressure P*."""
     C = np.asarray(C, float)
     n = len(C)
     S, L, _ = wr.predict_regions(C, np.ones(n), theta, P, bridged_pairs(C, np.ones(n)), **kw)
     return wr.region_force(P, theta, S, L)
-
-
-def _q(x, qs=(50, 100)):
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    return np.percentile(x, qs) if x.size else np.full(len(qs), np.nan)
 
 
 #: model variants (``predict_regions`` options) measured side by side: the continuous
@@ -389,21 +377,14 @@ def section(a):
     # level-3 checks
     l3 = []
     l3num = []
-    for k3, c3 in sorted(cache.items()):
-        if not k3.endswith(" L3") or c3["forces"] is None:
-            continue
+    for k3, c2, c3, moved in level3_pairs(cache, MAX_REFINE):
         k2 = k3[:-3] + f" L{MAX_REFINE}"
-        c2 = cache.get(k2)
-        if c2 is None or c2["forces"] is None:
-            continue
-        F2, F3 = np.asarray(c2["forces"]), np.asarray(c3["forces"])
-        sc = np.linalg.norm(F3, axis=1).max()
         r2, r3 = heldout_rows({k2: c2}), heldout_rows({k3: c3})
         e = {v: (max(r["err"] for r in r2 if r["variant"] == v),
                  max(r["err"] for r in r3 if r["variant"] == v)) for v in (NEW, OLD)}
-        l3num.append((np.linalg.norm(F2 - F3, axis=1).max() / sc, e[NEW][1]))
+        l3num.append((moved, e[NEW][1]))
         l3.append(f"| {k3[:-3]} | {c2['pressure']:.3f} / {c3['pressure']:.3f} | "
-                  f"{np.linalg.norm(F2 - F3, axis=1).max() / sc:.3f} | "
+                  f"{moved:.3f} | "
                   f"{e[NEW][0]:.3f} / {e[NEW][1]:.3f} | {e[OLD][0]:.3f} / {e[OLD][1]:.3f} | "
                   f"{c3['cpu_s']:.0f} |")
     if l3:
