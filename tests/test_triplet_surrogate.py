@@ -612,3 +612,9 @@ def test_error_model_of_a_table_computed_over_part_of_its_cube(shipped_triplet_t
     e = holdout_errors(sur, by="v")
     assert e["median_rel_error"] == pytest.approx(
         back.attrs["holdout_median_rel_error_pair_force_by_v"], rel=1e-12)
+
+
+def test_refine_words_other_than_auto_are_refused_in_one_line():
+    """refine='fine' names the value and what is allowed (no traceback of int())."""
+    with pytest.raises(CapbridgeInputError, match="give 'auto', one integer or three"):
+        TripletSurrogate(refine="fine")

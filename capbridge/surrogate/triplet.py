@@ -223,7 +223,11 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                  clip_hint="out_of_range='clip'"):
         check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
-        if not (isinstance(refine, str) and refine == "auto"):
+        if isinstance(refine, str):
+            if refine != "auto":
+                raise CapbridgeInputError(f"refine={refine!r}: give 'auto', one integer or "
+                                          "three (gaps, theta, v)")
+        else:
             _refine3(refine)    # checked here, stored as given (scikit-learn's clone)
         self.refine = refine
         self.method = method
@@ -292,7 +296,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
             return np.prod([(n - 1) * k + 1 for n, k in zip(sizes, steps)]) * \
                 (len(GRID_VARIABLES) + 1) * 8
 
-        if isinstance(self.refine, str):
+        if isinstance(self.refine, str) and self.refine == "auto":
             self.refine_ = next((r for r in AUTO_REFINE if grid_bytes(r) <= AUTO_GRID_BYTES),
                                 AUTO_REFINE[-1])
         else:
