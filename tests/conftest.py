@@ -136,6 +136,14 @@ def shipped_triplet_table():
 
 
 @pytest.fixture(scope="session")
+def packings_triplet_table():
+    """Path of the shipped second triplet table ``data/triplet_table_packings.nc`` (the
+    DEM engine's default)."""
+    from capbridge.tables import TRIPLET_TABLE_PACKINGS
+    return _shipped(TRIPLET_TABLE_PACKINGS, "triplet table of the packings grid")
+
+
+@pytest.fixture(scope="session")
 def coalescence_table():
     """Path of the shipped coalescence table ``data/triplet_coalescence.nc``."""
     from capbridge.cli import DEFAULT_COALESCENCE_TABLE

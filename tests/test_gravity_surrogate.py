@@ -253,7 +253,7 @@ def test_triplet_validated_bond_range_from_held_out_points(tsur):
     ds = add_synthetic_holdout(synthetic_triplet_table(), tsur)
     sur = TripletSurrogate().fit(ds, coalescence_table=DEFAULT_COALESCENCE_TABLE)
     e = sur.gravity_errors_
-    thr = sur.interpolation_error_["max_rel_to_largest"]
+    thr = sur.interpolation_error_["relative"]
     assert e["threshold"] == thr and 5e-3 < thr < 0.2
     assert e["n_cases"] == e["n_cases_used"] == 5 and e["used"].all()
     assert e["n_cases_by_bond"] == [5] * 5

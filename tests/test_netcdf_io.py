@@ -149,6 +149,22 @@ def test_status_defaults_and_invalid_codes(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["t.nc"]
 
 
+def test_flags_of_their_own_are_kept(tmp_path):
+    """A variable with CF flags that are not the statuses' (a triplet table's failure
+    kinds) keeps its flag meanings: they were once replaced by the status names."""
+    ds = _table()
+    ds["failure"] = (("gap", "volume"), np.zeros((6, 3), np.int8),
+                     {"units": "1", "long_name": "kind of failure of the point",
+                      "flag_values": np.arange(3, dtype=np.int8),
+                      "flag_meanings": "none mesh timeout"})
+    path = tmp_path / "t.nc"
+    write_table(ds, path, command="cmd", solver_settings={})
+    back = read_table(path)
+    assert back["failure"].attrs["flag_meanings"] == "none mesh timeout"
+    np.testing.assert_array_equal(back["failure"].attrs["flag_values"], [0, 1, 2])
+    assert back["status"].attrs["flag_meanings"] == cf_flag_attributes()["flag_meanings"]
+
+
 def test_read_table_rejects_foreign_files(tmp_path):
     plain = tmp_path / "plain.nc"
     _table().to_netcdf(plain)

@@ -355,6 +355,15 @@ def test_engine_options_of_triplet_forces():
         "enabled": False, "table_loaded": False, "clusters": 0}
 
 
+def test_the_engine_reads_the_packings_table_by_default(packings_triplet_table):
+    """Without ``triplet_table`` the engine takes the second table, whose domain holds the
+    coalesced triplets of real packings (issue 18), not the first one the CLI reads."""
+    from capbridge.yade.engine import CapbridgeEngine
+
+    eng = CapbridgeEngine(bridge_volume=1e-10, triplet_forces=True, label="h18_default")
+    assert eng.triplet_table == packings_triplet_table
+
+
 def test_engine_refuses_a_damaged_triplet_table_at_construction(tmp_path):
     """A damaged triplet table is one clear error when the engine is made, not a
     TableError traceback from the PyRunner at the first coalesced triplet."""

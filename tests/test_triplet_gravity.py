@@ -88,10 +88,11 @@ def test_cube_expansion_relabels_and_rotates_the_response():
                 np.testing.assert_allclose(cube[a, b, c, 0, 0], want, atol=1e-9)
 
 
-@pytest.fixture(scope="module")
-def table(triplet_table):
+@pytest.fixture(scope="module", params=["triplet_table", "packings_triplet_table"])
+def table(request):
+    """Each shipped triplet table (fixtures of conftest.py)."""
     xr = pytest.importorskip("xarray")
-    ds = xr.open_dataset(triplet_table)
+    ds = xr.open_dataset(request.getfixturevalue(request.param))
     if "force_gravity_gradient" not in ds:
         pytest.skip("the triplet table carries no gravity response")
     return ds

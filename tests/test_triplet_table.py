@@ -113,11 +113,26 @@ def test_failure_kinds_from_driver_reasons():
 # ---- the shipped table --------------------------------------------------------------
 
 
+#: the shipped triplet tables (fixtures of conftest.py) and points of each that the
+#: re-solve test solves again: a closed and an open triangle of the first table's grid,
+#: and on the second table's an open side beyond the first's (0.45) at a large v
+SHIPPED = {"triplet_table": [dict(d12=0.0, d13=0.1, d23=0.2, theta=60.0, v=1.25),
+                             dict(d12=0.1, d13=0.1, d23=0.1, theta=40.0, v=1.0)],
+           "packings_triplet_table": [dict(d12=0.0, d13=0.1, d23=0.2, theta=60.0, v=1.25),
+                                      dict(d12=0.0, d13=0.0, d23=0.45, theta=20.0, v=2.5)]}
+
+
+@pytest.fixture(scope="module", params=sorted(SHIPPED))
+def shipped(request):
+    """The name of a shipped table's fixture."""
+    return request.param
+
+
 @pytest.fixture(scope="module")
-def table(triplet_table):
+def table(request, shipped):
     from capbridge.tables.netcdf_io import read_table
 
-    return read_table(triplet_table)
+    return read_table(request.getfixturevalue(shipped))
 
 
 def test_shipped_table_is_symmetric_under_relabelling(table):
@@ -149,13 +164,12 @@ def test_shipped_table_forces_balance_and_records_its_command(table):
 
 
 @pytest.mark.evolver
-def test_shipped_points_resolved_by_evolver(table):
-    """Two canonical points of the shipped table solved again with its recorded settings."""
+def test_shipped_points_resolved_by_evolver(table, shipped):
+    """Two canonical points of each shipped table solved again with its recorded settings."""
     from capbridge.solvers.triplet_evolver import evolver_triplet
 
     plan = EvolverPlan(**json.loads(table.attrs["evolver_settings"]))
-    pts = [dict(d12=0.0, d13=0.1, d23=0.2, theta=60.0, v=1.25),
-           dict(d12=0.1, d13=0.1, d23=0.1, theta=40.0, v=1.0)]
+    pts = SHIPPED[shipped]
     for p in pts:
         row = table.sel(**p)
         assert int(row["status"]) in (Status.CONVERGED, Status.ABOVE_TOLERANCE)

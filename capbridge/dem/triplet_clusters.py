@@ -103,6 +103,8 @@ EVENTS = {
                             "bridges kept their merge-time volumes",
     "funicular_fallback": "clusters of >= 4 grains detected (doublet forces kept)",
     "approximate": "merges of unequal radii (surrogate approximation, status approximate)",
+    "open_side": "merges of triplets whose open side lies beyond the table, answered by its "
+                 "continuation (status approximate; surrogate.triplet_open_side)",
     "mixed_angle": "coalesced triplets of different contact angles (doublet forces kept; "
                    "counted at every check)",
     "merge_refused": "coalesced triplets the table cannot answer or where the separated "
@@ -270,23 +272,25 @@ def triangle_centres(L01, L02, L12):
 
 def load_surrogate(table=None, coalescence_table=None):
     """The triplet surrogate the engine uses: ``table`` (default the shipped
-    ``data/triplet_table.nc``) fitted with ``out_of_range="clip"`` (a volume ratio
-    outside the table is a status, not an exception) and with the dense coalescence
+    ``data/triplet_table_packings.nc``, :func:`~capbridge.surrogate.triplet.engine_table`) fitted with ``out_of_range="clip"`` (a volume ratio
+    outside the table is a status, not an exception), ``open_side="linear"`` (an open
+    side beyond the table up to 1.0 is answered by the table's continuation, status
+    approximate: :mod:`~capbridge.surrogate.triplet_open_side`) and with the dense coalescence
     volumes ``coalescence_table`` (default ``triplet_coalescence.nc`` beside the table,
     if it exists and covers the table's gaps and angles), with ``method="auto"``."""
     from pathlib import Path
 
     from capbridge.surrogate.load import default_coalescence_table
-    from capbridge.surrogate.triplet import TripletSurrogate, default_table
+    from capbridge.surrogate.triplet import TripletSurrogate, engine_table
 
-    path = Path(table) if table is not None else default_table()
+    path = Path(table) if table is not None else engine_table()
     if not path.exists():
         raise CapbridgeInputError(f"triplet table {path} not found: give "
                                   "triplet_table=... or triplet_forces=False")
     coal = coalescence_table
     if coal is None:
         coal = default_coalescence_table(path, path.parent / "triplet_coalescence.nc")
-    return TripletSurrogate(method="auto", out_of_range="clip").fit(
+    return TripletSurrogate(method="auto", out_of_range="clip", open_side="linear").fit(
         path, coalescence_table=coal)
 
 
@@ -409,7 +413,7 @@ class LiquidClusters:
         A fitted surrogate (tests); else one is fitted from ``table`` at the first merge
         candidate (lazy).
     table : path, optional
-        Triplet table (default the shipped ``data/triplet_table.nc``).
+        Triplet table (default the shipped ``data/triplet_table_packings.nc``).
     coalescence_table : path, optional
         Dense coalescence volumes for the surrogate (default ``data/triplet_coalescence.nc``
         when it exists).
@@ -1007,6 +1011,9 @@ class LiquidClusters:
                    for k in np.flatnonzero(~ok).tolist()}
         self.events["merge_refused"] += len(refused.keys() - self._refused.keys())
         self._refused = refused
+        gaps = np.maximum(geo["gaps"], 0.0) / geo["r"][:, None]
+        beyond = self.surrogate().continues(*gaps.T, radii=geo["R"] / geo["r"][:, None])
+        self.events["open_side"] += int((ok & beyond).sum())
         for k in np.flatnonzero(ok):
             g, pairs, v = cand[k]
             mem = np.full((3, 2), -1, np.intp)

@@ -16,6 +16,7 @@ from capbridge.surrogate.doublet import (DEFAULT_REFINE, DEFAULT_THETA_STEP, Dou
                                          gravity_holdout_errors)
 from capbridge.surrogate.doublet import holdout_errors as doublet_holdout_errors
 from capbridge.surrogate.triplet import TripletSurrogate
+from capbridge.surrogate.triplet_holdout import SMALL_FORCE
 from capbridge.surrogate.triplet_holdout import holdout_errors as triplet_holdout_errors
 
 #: the doublet check leaves out s < HOLDOUT_BAND (d* > 0.96 d*_rupt), where dF/dd*
@@ -91,15 +92,24 @@ def store_triplet_error_model(ds, coalescence_table=None):
     """
     sur = TripletSurrogate(method="auto").fit(ds, coalescence_table=coalescence_table)
     for by in ("volume", "v"):
-        _store_holdout(ds.attrs, triplet_holdout_errors(sur, by=by), "pair_force",
-                       f"by_{by}")
+        h = triplet_holdout_errors(sur, by=by)
+        _store_holdout(ds.attrs, h, "pair_force", f"by_{by}")
+        # the error model the surrogate applies: a max|f| + b
+        ds.attrs[f"holdout_error_relative_to_largest_by_{by}"] = h["relative"]
+        ds.attrs[f"holdout_error_absolute_by_{by}"] = h["absolute"]
+        ds.attrs[f"holdout_n_small_force_by_{by}"] = h["n_small"]
     ds.attrs["holdout_description"] = (
         "relative error of the surrogate's pair forces f12, f13, f23 (method auto: cubic, "
         "linear in the gaps on a table computed over part of its cube; "
         "default settings) against held-out Surface Evolver points one refinement level "
         "finer than the table, at random canonical geometries, theta and v inside the "
         "grid; by_volume: looked up at the total volume (includes the error of V_coal), "
-        "by_v: at the volume ratio (the force interpolation alone)")
+        "by_v: at the volume ratio (the force interpolation alone); error_relative_to_"
+        "largest: max |f - f_held| / max|f| over the points whose largest held-out pair "
+        f"force is at least {SMALL_FORCE:g} F*, error_absolute: max |f - f_held| (F*) over "
+        "the others "
+        "(n_small_force of them): |f - f_held| <= relative max|f| + absolute at every "
+        "held-out pair force")
     return ds
 
 

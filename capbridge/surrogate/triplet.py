@@ -89,7 +89,7 @@ from capbridge.surrogate.triplet_holdout import holdout_errors, holdout_points
 from capbridge.surrogate.triplet_nodes import (GRID_VARIABLES, PAIR_NAMES, PAIRS, cell_max,
                                                fill_failed, node_data, symmetrise)
 from capbridge.surrogate.triplet_unequal import combine_status, unequal_scales
-from capbridge.tables import TRIPLET_TABLE
+from capbridge.tables import TRIPLET_TABLE, TRIPLET_TABLE_PACKINGS
 from capbridge.tables.description import describe_evolver_points, describe_table
 from capbridge.validation import (CONTACT_OVERLAP_MAX, CapbridgeInputError, check_choice,
                                   check_gap, check_int, check_range)
@@ -98,11 +98,13 @@ from capbridge.physics.gravity import BOND_MAX
 from capbridge.solvers.triplet import table_frame
 from capbridge.status import HAS_RESULT
 from capbridge.surrogate.triplet_holdout import gravity_holdout_errors
+from capbridge.surrogate.triplet_open_side import (OPEN_SIDE_ERROR, OPEN_SIDE_LINEAR_MAX,
+                                                   OPEN_SIDES, beyond_open_side)
 from capbridge.surrogate.triplet_unequal import UNEQUAL_RADII_ERROR, UNEQUAL_SCHEMES
 
 __all__ = ["TripletSurrogate", "holdout_errors", "gravity_holdout_errors",
            "LOWER_ENERGY_STATES", "PAIR_NAMES", "UNEQUAL_RADII_ERROR", "UNEQUAL_SCHEMES",
-           "default_table", "table_frame", "BOND_MAX"]
+           "default_table", "engine_table", "table_frame", "BOND_MAX"]
 
 #: codes of ``lower_energy_state``
 LOWER_ENERGY_STATES = {
@@ -132,8 +134,15 @@ _TOL = 1e-12          # relative slack at the table's edges (round-off, not rang
 
 
 def default_table():
-    """``data/triplet_table.nc`` of this checkout."""
+    """``data/triplet_table.nc`` of this checkout (the CLI's and the API's default)."""
     return TRIPLET_TABLE
+
+
+def engine_table():
+    """``data/triplet_table_packings.nc`` of this checkout: the DEM engine's default, the
+    table of the domain that coalesced triplets of real packings reach (contacts on two
+    sides, the open side up to 0.6, v up to 5; the first table covers 4.5-79 % of them)."""
+    return TRIPLET_TABLE_PACKINGS
 
 
 # --------------------------------------------------------------------------------------
@@ -217,12 +226,20 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         OUT_OF_RANGE elsewhere).  Gaps and theta outside the table are always errors.
     clip_hint : str
         How the user turns clipping on, named in messages (the CLI passes ``"--clip"``).
+    open_side : {"refuse", "linear"}
+        A table with an open side (``max_bridge_gap``, the second table): an open side
+        beyond its last gap node is outside the table (``"refuse"``, default), or is
+        answered by continuing the table linearly in it at fixed v, up to
+        :data:`~capbridge.surrogate.triplet_open_side.OPEN_SIDE_LINEAR_MAX`, status
+        APPROXIMATE (``"linear"``, the DEM engine's; measured error
+        :data:`~capbridge.surrogate.triplet_open_side.OPEN_SIDE_ERROR`).
     """
 
     def __init__(self, method="cubic", refine="auto", out_of_range="raise",
-                 clip_hint="out_of_range='clip'"):
+                 clip_hint="out_of_range='clip'", open_side="refuse"):
         check_choice("method", method, tuple(METHODS))
         check_choice("out_of_range", out_of_range, ("raise", "clip"))
+        check_choice("open_side", open_side, tuple(OPEN_SIDES))
         if isinstance(refine, str):
             if refine != "auto":
                 raise CapbridgeInputError(f"refine={refine!r}: give 'auto', one integer or "
@@ -233,6 +250,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         self.method = method
         self.out_of_range = out_of_range
         self.clip_hint = clip_hint
+        self.open_side = open_side
 
     # ----------------------------------------------------------------------------- fit
     def fit(self, table, coalescence_table=None, separated_energy=None, *,
@@ -356,9 +374,9 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         self.interpolation_error_ = None
         if self.holdout_ is not None and self.holdout_["n"]:
             e = holdout_errors(self)
-            self.interpolation_error_ = {k: e[k] for k in ("median_rel_error",
-                                                           "max_rel_error",
-                                                           "max_rel_to_largest", "n")}
+            self.interpolation_error_ = {k: e[k] for k in (
+                "median_rel_error", "max_rel_error", "max_rel_to_largest", "relative",
+                "absolute", "n_small", "n")}
         self._fit_gravity(ds)
         return self
 
@@ -511,6 +529,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                 "holdout_error": self.interpolation_error_,
                 "max_bridge_gap": self.max_bridge_gap_,
                 "unequal_radii": dict(UNEQUAL_RADII_ERROR),
+                "open_side": {"mode": self.open_side, **OPEN_SIDE_ERROR},
                 "gravity": self.gravity_summary()}
 
     def spline_at(self, d12, d13, d23, theta, v):
@@ -560,9 +579,33 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         for d in (d12, d13, d23):
             d = np.asarray(d, float)
             ok &= (d >= lo) & (d <= hi)
+        ok |= self._beyond((d12, d13, d23)) & np.all(
+            [x >= lo for x in np.broadcast_arrays(*(np.asarray(d, float)
+                                                    for d in (d12, d13, d23)))], axis=0)
         t = np.asarray(theta, float)
         ok &= self._in_domain(*(np.asarray(d, float) for d in (d12, d13, d23)))
         return ok & (t >= self.theta_[0] - _TOL) & (t <= self.theta_[-1] * (1 + _TOL))
+
+    def continues(self, d12, d13, d23, radii=None, unequal="harmonic_pair"):
+        """True where an open side beyond the table is answered by its continuation
+        (``open_side="linear"``, :mod:`~capbridge.surrogate.triplet_open_side`), the
+        gaps scaled as in :meth:`covers`."""
+        self._check_fitted()
+        if radii is not None:
+            R = np.asarray(radii, float)
+            equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
+            out = False
+            for lk, _ in {id(a): (a, b) for a, b in
+                          unequal_scales(R, equal, unequal)}.values():
+                out = out | self._beyond([np.asarray(d, float) / lk for d in (d12, d13, d23)])
+            return out
+        return self._beyond((d12, d13, d23))
+
+    def _beyond(self, gaps):
+        """Where ``open_side="linear"`` continues the table (:func:`beyond_open_side`)."""
+        if self.open_side != "linear":
+            return np.zeros(np.broadcast_shapes(*(np.shape(x) for x in gaps)), bool)
+        return beyond_open_side(gaps, float(self.gaps_[-1]), self.max_bridge_gap_)
 
     def _in_domain(self, d12, d13, d23):
         """True where the middle gap is at most the table's ``max_bridge_gap`` (always,
@@ -581,11 +624,38 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         """
         self._check_fitted()
         g, _, t, shape = self._validate(d12, d13, d23, 1.0, theta)
-        loc = [self.axes_[k].locate(x) for k, x in enumerate(g + [t])]
+        far = self._beyond(g)
+        if not far.any():
+            return {k: x.reshape(shape) for k, x in self._coalescence_at(g, t).items()}
+        (edge, prev), w = self._open_side_nodes(g, far)
+        ge = [x.copy() for x in g]
+        for k in range(3):
+            ge[k][far] = edge[k]
+        out = self._coalescence_at(ge, t)
+        inner = self._coalescence_at(prev, t[far])
+        for k, x in out.items():
+            x[far] += w * (x[far] - inner[k])
+        return {k: x.reshape(shape) for k, x in out.items()}
+
+    def _coalescence_at(self, g, t):
+        """V*_coal, V0, dV at gaps g (three arrays) inside the table and angles t."""
+        loc = [self.axes_[k].locate(x) for k, x in enumerate(list(g) + [t])]
         idx, fr = [a[0] for a in loc], [a[1] for a in loc]
         law = self.law_grid_(idx[:3], fr[:3])
-        return {"volume_coalescence": self.coal_grid_(idx, fr)[:, 0].reshape(shape),
-                "V0": law[:, 0].reshape(shape), "dV": law[:, 1].reshape(shape)}
+        return {"volume_coalescence": self.coal_grid_(idx, fr)[:, 0], "V0": law[:, 0],
+                "dV": law[:, 1]}
+
+    def _open_side_nodes(self, g, far):
+        """The points ``far`` with their open side at the table's last gap node and at
+        the one before ((edge, prev): three arrays each), and the weight w of the
+        continuation (:mod:`~capbridge.surrogate.triplet_open_side`)."""
+        G = np.stack([x[far] for x in g])
+        m = np.argmax(G, axis=0)
+        d_max, d_prev = float(self.gaps_[-1]), float(self.gaps_[-2])
+        rows = np.arange(G.shape[1])
+        edge, prev = G.copy(), G.copy()
+        edge[m, rows], prev[m, rows] = d_max, d_prev
+        return (list(edge), list(prev)), (G[m, rows] - d_max) / (d_max - d_prev)
 
     # ------------------------------------------------------------------------- predict
     def _validate(self, d12, d13, d23, volume, theta):
@@ -607,8 +677,10 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                     f"triangle of centres: {na} must be < 2 + {nb} + {nc} (equal spheres "
                     f"of radius 1)")
         names = ("d12", "d13", "d23")
+        far = self._beyond(g)
         for n, x in zip(names, g):
-            self._range(f"gap {n}", x, self.gaps_, " (gap / r)")
+            self._range(f"gap {n}", np.where(far, np.minimum(x, self.gaps_[-1]), x),
+                        self.gaps_, " (gap / r)")
         out = ~self._in_domain(*g)
         if out.any():
             k = int(np.flatnonzero(out)[0])
@@ -625,10 +697,13 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         lo, hi = axis[0], axis[-1]
         outside = (x < lo - _TOL * max(1.0, abs(lo))) | (x > hi + _TOL * max(1.0, abs(hi)))
         if outside.any():
+            beyond = "" if not (units.startswith(" (gap") and self.open_side == "linear"
+                                and self.max_bridge_gap_ is not None) else \
+                f" (open_side='linear' continues an open side up to {OPEN_SIDE_LINEAR_MAX:g})"
             raise CapbridgeInputError(
                 f"{name}={x[outside][0]!r}{units.split(' (')[0]} is outside the triplet "
-                f"table's range [{lo:g}, {hi:g}]; another geometry or angle is another "
-                "body: solve it with Surface Evolver (capbridge solve triplet)")
+                f"table's range [{lo:g}, {hi:g}]{beyond}; another geometry or angle is "
+                "another body: solve it with Surface Evolver (capbridge solve triplet)")
 
     def predict(self, d12, d13, d23, volume, theta):
         """The coalesced body on three equal spheres: dict of arrays (broadcast shape).
@@ -655,14 +730,52 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
             E_coalesced - E_separated (NaN if unknown); ``lower_energy_state`` (codes
             :data:`LOWER_ENERGY_STATES`); ``force_error`` (estimated absolute error of
             the pair forces, F*: the largest Evolver estimate of the cell's table nodes
-            plus the held-out max relative interpolation error times max |f_ij|);
+            plus the held-out interpolation error a max |f_ij| + b,
+            ``interpolation_error_["relative"]``, ``["absolute"]``:
+            :func:`~capbridge.surrogate.triplet_holdout.holdout_errors`);
             ``status`` (int8 :class:`~capbridge.status.Status`).  Points without a
             result have NaN forces, pressure and energy.
         """
         self._check_fitted()
         g, V, t, shape = self._validate(d12, d13, d23, volume, theta)
-        out = self._lookup(g, V, t)
+        far = self._beyond(g)
+        out = self._lookup(g, V, t) if not far.any() else self._lookup_open_side(g, V, t, far)
         return {k: v.reshape(shape) for k, v in out.items()}
+
+    def _lookup_open_side(self, g, V, t, far):
+        """:meth:`_lookup` where the points ``far`` have an open side beyond the table:
+        the continuation of :mod:`~capbridge.surrogate.triplet_open_side` (two lookups
+        at fixed v), status APPROXIMATE where both have a result."""
+        (edge, prev), w = self._open_side_nodes(g, far)
+        tf = t[far]
+        ce, cp = self._coalescence_at(edge, tf), self._coalescence_at(prev, tf)
+        vc = ce["volume_coalescence"] + w * (ce["volume_coalescence"] -
+                                             cp["volume_coalescence"])
+        v = V[far] / vc
+        e = self._lookup(edge, v * ce["volume_coalescence"], tf)
+        p = self._lookup(prev, v * cp["volume_coalescence"], tf)
+        out = {k: np.empty(V.size, x.dtype) for k, x in e.items()}
+        near = ~far
+        if near.any():
+            for k, x in self._lookup([x[near] for x in g], V[near], t[near]).items():
+                out[k][near] = x
+        for k, x in e.items():
+            if x.dtype.kind == "f" and k not in ("v", "force_error"):
+                x = x + w * (x - p[k])
+            out[k][far] = x
+        out["volume_coalescence"][far] = vc
+        out["v"][far] = e["v"]
+        # the continuation's own measured error on top of the two lookups' estimates
+        fmax = np.max(np.abs(np.stack([out[n][far] for n in PAIR_NAMES])), axis=0)
+        out["force_error"][far] = np.maximum(e["force_error"], p["force_error"]) + \
+            OPEN_SIDE_ERROR["max"] * fmax
+        st = combine_status(e["status"], p["status"])
+        has = status_in(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
+        out["status"][far] = np.where(has, np.int8(Status.APPROXIMATE), st)
+        lower = e["lower_energy_state"]
+        out["lower_energy_state"][far] = np.where(lower == p["lower_energy_state"], lower,
+                                                  np.int8(2))   # undecided
+        return out
 
     def _lookup(self, g, V, t, chunk=16384):
         n = V.size
@@ -708,9 +821,11 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         status = np.where(below & (code <= 2), np.int8(Status.OUT_OF_RANGE), status)
         res = {name: vals[:, k] for k, name in enumerate(GRID_VARIABLES)}
         fmax = np.max(np.abs(vals[:, :3]), axis=1)
-        interp = 0.0 if self.interpolation_error_ is None else \
-            self.interpolation_error_["max_rel_error"]
-        res["force_error"] = self.cell_force_error_.ravel()[cidx] + interp * fmax
+        ie = self.interpolation_error_ or {"relative": 0.0, "absolute": 0.0}
+        # the held-out error model: relative to the largest pair force, plus an
+        # absolute part measured where the body barely pulls (triplet_holdout)
+        res["force_error"] = self.cell_force_error_.ravel()[cidx] + \
+            ie["relative"] * fmax + ie["absolute"]
         nores = ~status_in(status, (Status.CONVERGED, Status.ABOVE_TOLERANCE,
                                     Status.EXTRAPOLATED))
         for name in GRID_VARIABLES + ("force_error",):

@@ -158,7 +158,9 @@ class TripletGravityResponse:
             s = np.broadcast_to(s, shape)[on]
             Q = table_frame(centres[on])                      # table -> caller
             Vl = V[on] / s**3
-            g = [gaps[on][:, m] / s for m in range(3)]
+            # an open side continued beyond the table (open_side="linear") takes the
+            # response at the table's edge
+            g = [np.minimum(gaps[on][:, m] / s, self.gaps_[-1]) for m in range(3)]
             G, Cv, resid_on, code = self._gravity_lookup(g, t[on], res["v"][on], Vl)
             bt = np.matmul(b[on][:, None, :], Q)[:, 0] * (s**2)[:, None]   # lookup units
             # the two terms of triplet_gravity_forces, as batched products

@@ -104,10 +104,16 @@ def capbridge_version() -> str:
 
 
 def is_status_variable(name: str, var: xr.DataArray) -> bool:
-    """Whether a variable holds :class:`capbridge.status.Status` codes."""
+    """Whether a variable holds :class:`capbridge.status.Status` codes: by its name, or
+    by CF flags that are the statuses' (a variable with flags of its own, such as a
+    triplet table's ``failure`` kinds, keeps them)."""
     name = str(name)
-    return (name == "status" or name.endswith("_status") or name.startswith("status_")
-            or "flag_values" in var.attrs)
+    if name == "status" or name.endswith("_status") or name.startswith("status_"):
+        return True
+    if "flag_values" not in var.attrs:
+        return False
+    meanings = var.attrs.get("flag_meanings")
+    return meanings is None or str(meanings) == cf_flag_attributes()["flag_meanings"]
 
 
 def _json_default(obj):

@@ -119,7 +119,8 @@ ENGINE_PARAMETERS = {
                               "almost every check, see docs/guide.md, \"Coalesced "
                               "triplets\") or False: report only"),
     "triplet_table": (None, "triplet table (path); default the shipped "
-                            "data/triplet_table.nc, read at the first coalesced triplet"),
+                            "data/triplet_table_packings.nc (the domain packings reach), "
+                            "read at the first coalesced triplet"),
     "triplet_split": ("table", "how a split cluster shares its liquid: 'table' (equal "
                                "Laplace pressure on the doublet table, milliseconds), "
                                "'exact' (equal pressure, exact doublets, seconds per "

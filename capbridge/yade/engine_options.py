@@ -492,9 +492,9 @@ def check_triplet_table(triplet_forces, triplet_table, coalescence):
     ``coalescence=True`` and a valid table (read here, so that a damaged one is an error
     now, not at the first coalesced triplet); ``None`` (scenes saved with that old
     default) means on when the table exists."""
-    from capbridge.surrogate.triplet import default_table
+    from capbridge.surrogate.triplet import engine_table
 
-    path = Path(triplet_table) if triplet_table is not None else default_table()
+    path = Path(triplet_table) if triplet_table is not None else engine_table()
     if triplet_forces is None:
         triplet_forces = coalescence and path.exists()
     elif triplet_forces and not path.exists():
