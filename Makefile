@@ -69,16 +69,17 @@ reproduce: setup
 
 # Regenerates the shipped tables (resumable: rerun after a kill to continue).  The
 # doublet table takes about 1 h 45 min on 2 cores (most of it its gravity response), the
-# coalescence table 8 min; the triplet table hours of Surface Evolver (its committed
-# checkpoints in sweeps/triplet are reused point by point: a minute).
-data: setup
+# coalescence table 8 min; the two triplet tables hours of Surface Evolver each (their
+# committed checkpoints in sweeps/triplet and sweeps/triplet_packings are reused point
+# by point: minutes).
+data: setup data-packings
 	$(VENV)/bin/capbridge generate doublet --checkpoint-dir .sweep-checkpoints/doublet
 	$(VENV)/bin/capbridge generate coalescence --checkpoint-dir .sweep-checkpoints/triplet_coalescence
 	$(VENV)/bin/capbridge generate triplet --jobs 2 --holdout 12 --checkpoint-dir sweeps/triplet
 
-# The second triplet table (issue 18: the domain packings reach), being computed: ~10 CPU
-# hours in all, resumed from the chunks committed in sweeps/triplet_packings; it joins
-# `data` when it ships.
+# The second triplet table, data/triplet_table_packings.nc (issue 18: the domain that
+# coalesced triplets of packings reach; the DEM engine's table): ~10 CPU hours from
+# scratch, minutes from the chunks committed in sweeps/triplet_packings.
 data-packings: setup
 	$(VENV)/bin/capbridge generate triplet --grid packings --jobs 2 --checkpoint-dir sweeps/triplet_packings
 

@@ -362,6 +362,21 @@ def _refusal_reasons(res, ok):
             "separated_lower": int((asked & has).sum())}
 
 
+#: the last bridge keys sorted by _sorted_keys: (keys, order, sorted keys).  A model
+#: replaces its keys array whenever a bridge forms or ruptures (never edits it), so the
+#: same array object means the same bridges (the reference held here keeps its id)
+_SORTED_KEYS = [None, None, None]
+
+
+def _sorted_keys(keys):
+    """(argsort, sorted values) of a model's bridge keys, sorted once per keys array:
+    several searches a step (the clusters' rows, the bridges they follow)."""
+    if _SORTED_KEYS[0] is not keys:
+        order = np.argsort(keys, kind="stable")
+        _SORTED_KEYS[:] = [keys, order, keys[order]]
+    return _SORTED_KEYS[1], _SORTED_KEYS[2]
+
+
 def _no_expansion(n):
     """Rows of :attr:`LiquidClusters.expansion` for ``n`` clusters without one (NaN
     gaps: the next step looks them up)."""
@@ -463,9 +478,13 @@ class LiquidClusters:
         self.approx = np.empty(0, bool)
         self.last_forces = np.empty((0, 3, 3))         # grain forces last step [N]
         self.expansion = _no_expansion(0)
+        # the bridges the clusters were last followed against (_follow_bridges)
+        self._appends = 0
+        self._followed = (None, -1)
 
     def _append(self, grains, members, volume, born, approx):
         """One new cluster, last in every per-cluster array."""
+        self._appends += 1
         self.grains = np.vstack([self.grains, grains[None]])
         self.members = np.concatenate([self.members, members[None]])
         self.volume = np.append(self.volume, volume)
@@ -507,8 +526,7 @@ class LiquidClusters:
             return out
         lo, hi = pairs.min(axis=1), pairs.max(axis=1)
         keys = lo.astype(np.int64) * model.n + hi
-        order = np.argsort(model.keys, kind="stable")
-        sk = model.keys[order]
+        order, sk = _sorted_keys(model.keys)
         at = np.minimum(np.searchsorted(sk, keys), sk.size - 1)
         found = (sk[at] == keys) & (lo >= 0)
         out[found] = order[at[found]]
@@ -1067,6 +1085,8 @@ class LiquidClusters:
         joins the cluster's members and its volume the cluster's liquid, so its
         doublet force is not added to the cluster's forces (the liquid would be
         counted twice)."""
+        if self._followed[0] is model.keys and self._followed[1] == self._appends:
+            return              # no bridge formed or ruptured, no cluster new since
         T = self.grains
         pairs = np.stack([T[:, [0, 1]], T[:, [0, 2]], T[:, [1, 2]]], 1)      # (k, 3, 2)
         rows = self._rows(model, pairs.reshape(-1, 2)).reshape(-1, 3)
@@ -1084,6 +1104,7 @@ class LiquidClusters:
             self.volume[c] += model.vol[b]
             self.expansion["gaps"][c] = np.nan          # a new volume: a new lookup
             self.events["absorbed"] += 1
+        self._followed = (model.keys, self._appends)
 
     def _note_funicular(self, funicular):
         """Count new >= 4-grain clusters (once each) and keep the current ones' sizes."""
@@ -1269,6 +1290,7 @@ class LiquidClusters:
 
     def set_state(self, st):
         """Continue from :meth:`get_state` (the table is loaded again only when needed)."""
+        self._followed = (None, -1)
         self.grains = np.asarray(st["grains"], np.intp).reshape(-1, 3)
         self.members = np.asarray(st["members"], np.intp).reshape(-1, 3, 2)
         self.volume = np.asarray(st["volume"], float).ravel()
