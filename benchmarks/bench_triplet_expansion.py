@@ -1,7 +1,7 @@
 """Forces between lookups in a packing: the expansion's error and how often clusters are looked up.
 
     .venv/bin/python benchmarks/bench_triplet_expansion.py [--water-content 0.03,0.05]
-        [--packing mono] [--steps 300] [--warmup 100] [--table data/triplet_table.nc]
+        [--packing mono] [--steps 300] [--warmup 100] [--table data/triplet_table_packings.nc]
 
 Between two lookups of a coalesced triplet the engine takes its pair forces from the
 first-order expansion about the last lookup (``LiquidClusters.expansion``,
@@ -82,7 +82,7 @@ def main(argv=None):
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--warmup", type=int, default=100)
     ap.add_argument("--every", type=int, default=10)
-    ap.add_argument("--table", default=str(by.ROOT / "data" / "triplet_table.nc"))
+    ap.add_argument("--table", default=str(by.ROOT / "data" / "triplet_table_packings.nc"))
     a = ap.parse_args(argv)
     packing = by.CACHE / f"{a.packing}_packing_1000.npz"
     if not packing.exists():

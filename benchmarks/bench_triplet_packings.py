@@ -104,7 +104,7 @@ def main(argv=None):
     ap.add_argument("--radii", default="equal,poly25")
     ap.add_argument("--theta", default="0,30,60")
     ap.add_argument("--water", default="0.03,0.05,0.10")
-    ap.add_argument("--table", default=str(by.ROOT / "data" / "triplet_table.nc"))
+    ap.add_argument("--table", default=str(by.ROOT / "data" / "triplet_table_packings.nc"))
     ap.add_argument("--label", default="current", help="cache folder and section name")
     ap.add_argument("--write", action="store_true")
     a = ap.parse_args(argv)

@@ -1,7 +1,7 @@
 """ms per step of a wet packing with coalesced triplets: triplet forces on / off, YADE Law2.
 
     .venv/bin/python benchmarks/bench_yade_triplet.py [--n 1000] [--steps 300]
-        [--water-content 0.05] [--table data/triplet_table.nc] [--write]
+        [--water-content 0.05] [--table data/triplet_table_packings.nc] [--write]
 
 One run, on one packing: N equal spheres (r = 1 mm; equal, so that the triplet table
 applies without the unequal-radii approximation) deposited dry under gravity in a box
@@ -130,7 +130,7 @@ def main(argv=None):
     ap.add_argument("--warmup", type=int, default=100)
     ap.add_argument("--every", type=int, default=10, help="coalescence_every")
     ap.add_argument("--water-content", type=float, default=0.05)
-    ap.add_argument("--table", default=str(ROOT / "data" / "triplet_table.nc"))
+    ap.add_argument("--table", default=str(ROOT / "data" / "triplet_table_packings.nc"))
     ap.add_argument("--write", action="store_true")
     ap.add_argument("--note", default="", help="a paragraph added to the section")
     a = ap.parse_args(argv)

@@ -100,7 +100,7 @@ def table(request):
 
 def test_shipped_response_carries_the_weight_and_respects_the_mirror(table):
     status = table["gravity_status"].values
-    assert (status == Status.CONVERGED).mean() > 0.8
+    assert (status == Status.CONVERGED).sum() > 0.8 * np.sum(status != Status.NOT_COMPUTED)
     # the stored residual is a max-norm in the canonical frame: compare at the canonical
     # nodes (d12 <= d13 <= d23), whose frame is the canonical one
     d = table["d12"].values

@@ -84,8 +84,9 @@ class TripletGravityResponse:
         self.gravity_cell_bad_ = np.ascontiguousarray(cell_max((~ok).astype(np.int8)))
         self.gravity_cell_residual_ = np.ascontiguousarray(
             cell_max(np.where(ok, res, 0.0)))
+        # nodes outside a table's computed domain are not counted (max_bridge_gap)
         self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum()),
-                               "total": int(st.size)}
+                               "total": int(np.sum(st != Status.NOT_COMPUTED))}
         if "gravity_holdout_force" in ds:
             self.gravity_errors_ = gravity_holdout_errors(self, ds)
             self.gravity_bond_max_ = self.gravity_errors_["bond_max_validated"]

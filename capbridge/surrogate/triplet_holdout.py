@@ -137,8 +137,9 @@ def gravity_holdout_errors(surrogate, table=None):
     (``interpolation_error_['relative']``: pair forces relative to the largest pair
     force of the point, over the points that pull at least :data:`SMALL_FORCE`; NaN
     without held-out points, then nothing is validated); ``bond_max_validated`` the
-    largest held-out Bo such that at every Bo up
-    to it every used case has ``error`` <= threshold (0 if none).
+    largest held-out Bo such that at every Bo up to it every used case has
+    ``effect_error`` <= threshold: the response adds at most the table's own error
+    (0 if none).
 
     Returns
     -------
@@ -196,9 +197,12 @@ def gravity_holdout_errors(surrogate, table=None):
     nby = [int(len(set(case[used & (h["bond"] == b)].tolist()))) for b in bonds]
     eby = [float(np.nanmax(eff[used & (h["bond"] == b)]))
            if np.any(used & (h["bond"] == b) & np.isfinite(eff)) else np.nan for b in bonds]
+    # validated while the response adds no more than the table's own error: the error
+    # of the gravity effect alone (the error at Bo = 0 is the table's interpolation,
+    # measured on grain force vectors; it may sit just above the pair-force threshold)
     bmax = 0.0
-    for b, e in zip(bonds, by):
-        if not (np.isfinite(e) and e <= thr):
+    for b, e in zip(bonds, eby):
+        if not (np.isfinite(e) and e <= thr) and b > 0:
             break
         bmax = b
     return {"bond": h["bond"].astype(float), "orientation": orient, "case": case,

@@ -51,7 +51,8 @@ from capbridge.tables.netcdf_io import write_table
 from capbridge.tables.sweep import DASK_WORKER_TIMEOUT, run_sweep
 from capbridge.tables.triplet_gravity import (GravityPlan, gravity_chunk,
                                                  gravity_holdout_chunk,
-                                                 rotate_gravity_tensor, stack_tensors)
+                                                 rotate_gravity_tensor, stack_tensors,
+                                                 sum_rule_status)
 from capbridge.status import HAS_RESULT, Status, cf_flag_attributes, status_in
 
 __all__ = ["TripletGrid", "EvolverPlan", "build_triplet_table", "save_triplet_table",
@@ -397,7 +398,7 @@ def _expand_to_cube(grid, canon, values):
 
 def _not_computed(name, dtype):
     """The stored value of a cube node outside the computed domain."""
-    if name == "status":
+    if name in ("status", "gravity_status"):
         return Status.NOT_COMPUTED
     if name == "failure":
         return list(FAILURE_KINDS).index("not_computed")
@@ -591,7 +592,8 @@ def _gravity_dataset(grid, gplan, canon, vref, status, phase):
     shape = (nc, nt, nv)
     per = {"force_gravity_gradient": stack_tensors(res, "G", shape),
            "force_gravity_curvature": stack_tensors(res, "C", shape),
-           "gravity_status": res["status"].reshape(shape),
+           "gravity_status": sum_rule_status(res["status"],
+                                             res["gravity_sum_residual"]).reshape(shape),
            "gravity_sum_residual": res["gravity_sum_residual"].reshape(shape),
            "gravity_cpu_time": res["gravity_cpu_time"].reshape(shape)}
     cube = _expand_to_cube(grid, canon, per)
