@@ -147,8 +147,10 @@ def print_triplet_summary(s, path):
         print("  gravity: none (the lookups answer Bo = 0 only; `capbridge solve triplet "
               "--bond` solves with gravity)")
         return
-    print(f"  gravity: response on v = {g['gravity_v']} ({g['nodes']['with_response']} of "
-          f"{g['nodes']['total']} nodes with a result); Bo supported [0, "
+    n = g["nodes"]
+    filled = f", {n['filled']} filled from their neighbours" if n.get("filled") else ""
+    print(f"  gravity: response on v = {g['gravity_v']} ({n['with_response']} of "
+          f"{n['total']} nodes with a result{filled}); Bo supported [0, "
           f"{g['bond_max_supported']:g}], validated [0, {g['bond_max_validated']:g}] "
           "(above: status approximate)")
     h = g.get("holdout")

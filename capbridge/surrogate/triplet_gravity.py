@@ -29,7 +29,49 @@ from capbridge.surrogate.grid import FineAxis, Grid
 from capbridge.surrogate.triplet_holdout import gravity_holdout_errors
 from capbridge.surrogate.triplet_nodes import cell_max
 
-__all__ = ["TripletGravityResponse"]
+__all__ = ["TripletGravityResponse", "fill_response", "sum_rule_residual"]
+
+
+def fill_response(vals, ok, fillable, coords):
+    """Values at the nodes ``fillable`` of a response grid (..., theta, gravity_v,
+    features) from the valid nodes ``ok`` of their line: linear in gravity_v
+    (interpolated between the nearest valid nodes on either side, else extrapolated from
+    the two nearest, else the one), else the same along theta.  Only valid nodes are
+    sources.  Returns (values, filled mask)."""
+    vals = np.array(vals, float)
+    filled = np.zeros(ok.shape, bool)
+    for axis, x in ((4, coords[1]), (3, coords[0])):
+        for idx in np.argwhere(fillable & ~filled):
+            line = list(idx)
+            line[axis] = slice(None)
+            line = tuple(line)
+            src = np.flatnonzero(ok[line])
+            if src.size == 0:
+                continue
+            xi = x[idx[axis]]
+            below, above = src[x[src] < xi], src[x[src] > xi]
+            if below.size and above.size:
+                pick = (below[-1], above[0])
+            elif src.size >= 2:
+                pick = tuple(src[np.argsort(np.abs(x[src] - xi))[:2]])
+            else:
+                pick = (src[0],)
+            ys = vals[line][list(pick)]
+            if len(pick) == 1:
+                y = ys[0]
+            else:
+                w = (xi - x[pick[0]]) / (x[pick[1]] - x[pick[0]])
+                y = ys[0] + w * (ys[1] - ys[0])
+            vals[tuple(idx)] = y
+            filled[tuple(idx)] = True
+    return vals, filled
+
+
+def sum_rule_residual(vals):
+    """max |sum_i G_i / W - I| of response values (..., 54) (G / W first): the sum-rule
+    residual of a node relative to its weight, as ``gravity_sum_residual``."""
+    G = vals[..., :27].reshape(vals.shape[:-1] + (3, 3, 3))
+    return np.abs(G.sum(axis=-3) - np.eye(3)).max(axis=(-2, -1))
 
 
 class TripletGravityResponse:
@@ -71,9 +113,18 @@ class TripletGravityResponse:
         vals = np.concatenate([(G / Wn).reshape(ok.shape + (27,)),
                                (C / Wn).reshape(ok.shape + (27,))], -1)
         vals[~ok] = 0.0
+        # a node whose response failed where the body exists (its six runs did not all
+        # converge) is filled from its neighbours along v, else theta; cells touching
+        # it answer APPROXIMATE (error: benchmarks/bench_gravity_fill.py)
+        body = (st != Status.NOT_COMPUTED) & np.isfinite(W) & (W > 0)
+        vals, filled = fill_response(vals, ok, body & ~ok,
+                                     (np.asarray(self.theta_, float), gv))
+        res = np.where(filled, sum_rule_residual(vals), res)
+        ok = ok | filled
         if gv.size == 1:          # one volume ratio: the response taken constant in v
             gv = np.array([gv[0], gv[0] * 2.0])
-            vals, ok, res = (np.concatenate([x, x], axis=4) for x in (vals, ok, res))
+            vals, ok, res, filled = (np.concatenate([x, x], axis=4)
+                                     for x in (vals, ok, res, filled))
             self._gravity_single_v = True
         else:
             self._gravity_single_v = False
@@ -82,10 +133,13 @@ class TripletGravityResponse:
         self.gravity_axes_ = [FineAxis(c, 1) for c in coarse]
         self.gravity_grid_ = Grid(np.ascontiguousarray(vals), "multilinear")
         self.gravity_cell_bad_ = np.ascontiguousarray(cell_max((~ok).astype(np.int8)))
+        self.gravity_cell_filled_ = np.ascontiguousarray(cell_max(filled.astype(np.int8)))
         self.gravity_cell_residual_ = np.ascontiguousarray(
             cell_max(np.where(ok, res, 0.0)))
         # nodes outside a table's computed domain are not counted (max_bridge_gap)
-        self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum()),
+        n_filled = int(filled[..., :self.gravity_v_.size].sum())
+        self.gravity_nodes_ = {"with_response": int(ok[..., :self.gravity_v_.size].sum())
+                               - n_filled, "filled": n_filled,
                                "total": int(np.sum(st != Status.NOT_COMPUTED))}
         if "gravity_holdout_force" in ds:
             self.gravity_errors_ = gravity_holdout_errors(self, ds)
@@ -95,8 +149,9 @@ class TripletGravityResponse:
         """G, C (n, 3, 3, 3) in the table frame of each point for the liquid volume
         ``volume`` (lookup units), the cell's largest sum-rule residual and a status
         per point (int8 :class:`~capbridge.status.Status`): CONVERGED (available),
-        APPROXIMATE (v outside the response's range: nearest v), NOT_CONVERGED (not
-        available: a node of the cell has no response)."""
+        APPROXIMATE (v outside the response's range: nearest v; or a node of the cell
+        filled, :func:`fill_response`), NOT_CONVERGED (not available: a node of the
+        cell has no response)."""
         gv = self.gravity_v_
         clipped = (v < gv[0] * (1 - 1e-9)) | (v > gv[-1] * (1 + 1e-9))
         vq = np.clip(v, gv[0], gv[-1])
@@ -109,8 +164,9 @@ class TripletGravityResponse:
         C = vals[:, 27:].reshape(-1, 3, 3, 3) * W
         cell = tuple(idx)
         bad = self.gravity_cell_bad_[cell] > 0
+        approx = clipped | (self.gravity_cell_filled_[cell] > 0)
         code = np.where(bad, np.int8(Status.NOT_CONVERGED),
-                        np.where(clipped, np.int8(Status.APPROXIMATE),
+                        np.where(approx, np.int8(Status.APPROXIMATE),
                                  np.int8(Status.CONVERGED))).astype(np.int8)
         return G, C, self.gravity_cell_residual_[cell], code
 
