@@ -817,9 +817,9 @@ class LiquidClusters:
         return {"direction": g_vec, "bond": np.where(above, 0.0, bond), "above": above}
 
     def _gravity_fallback(self, part, grav, volume, reason):
-        """Clusters whose gravity response has no number (a cell touching a gravity
-        node that did not converge: in the shipped table 28 of 405 nodes, theta 0-20
-        deg at v 0.85-1.25) or whose Bo is above the table's get the liquid's weight
+        """Clusters whose gravity response has no number (since the surrogate fills a
+        node whose runs failed from its neighbours, only cells without a body or a
+        table without a response) or whose Bo is above the table's get the liquid's weight
         shared equally by their three grains (the first-order answer for three equal
         grains in an equilateral triangle), with their reason code in ``reason``."""
         bad = ~np.all(np.isfinite(part), axis=(1, 2))
