@@ -37,7 +37,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from bench_triplet import EVOLVER_SETTINGS, RETRY_RINGS, triangle_centres  # noqa: E402
+from bench_triplet import solve_coalesced, triangle_centres  # noqa: E402
 from results_file import write_section  # noqa: E402
 
 CACHE = HERE / "evolver_out" / "open_side.json"
@@ -81,8 +81,6 @@ def coalescence_volume(radii, gaps, theta):
 def run_evolver(cases=CASES, cache=CACHE):
     """Solve the missing cases with Surface Evolver (the table's settings); update the
     cache after each."""
-    from capbridge.solvers.evolver import Settings, minimise_bridge
-    from capbridge.solvers.triplet import pair_forces
     from capbridge.tables.atomic import atomic_target
 
     done = json.loads(cache.read_text()) if cache.exists() else {}
@@ -91,31 +89,9 @@ def run_evolver(cases=CASES, cache=CACHE):
         radii, gaps, theta, v = case
         centres = triangle_centres(radii, gaps)
         vc = coalescence_volume(radii, gaps, theta)
-        volume = v * vc
-        attempts = []
-        for ring in RETRY_RINGS:
-            res = minimise_bridge(centres, list(radii), theta, volume, topology="coalesced",
-                                  settings=Settings(n_ring=ring, **EVOLVER_SETTINGS))
-            attempts.append({"n_ring": ring, "status": res.status.name.lower(),
-                             "reason": res.reason, "cpu_time": res.cpu_time})
-            if res.converged or not any(k in res.reason for k in
-                                        ("degenerate", "fold", "driver error")):
-                break
         entry = {"radii": list(radii), "gaps": list(gaps), "theta": theta, "v": v,
-                 "V_coal": vc, "volume": volume, "centres": centres.tolist(),
-                 "status": res.status.name.lower(), "reason": res.reason,
-                 "refinement": int(res.refinement),
-                 "cpu_time": float(sum(a["cpu_time"] for a in attempts)),
-                 "settings": EVOLVER_SETTINGS}
-        if res.converged and res.forces is not None:
-            F = np.asarray(res.forces, float)
-            f, resid = pair_forces(centres, F)
-            entry.update({"forces": F.tolist(),
-                          "force_error_rel": float(res.error_estimate.get("force_rel",
-                                                                          np.nan)),
-                          "pair_forces": [f[(0, 1)], f[(0, 2)], f[(1, 2)]],
-                          "pair_residual": resid,
-                          "pressure": float(np.asarray(res.pressure).ravel()[0])})
+                 "V_coal": vc, "volume": v * vc, "centres": centres.tolist(),
+                 **solve_coalesced(centres, radii, theta, v * vc)}
         done[case_key(case)] = entry
         cache.parent.mkdir(parents=True, exist_ok=True)
         with atomic_target(cache) as tmp:

@@ -101,11 +101,43 @@ def _target_volume(radii, gaps, theta, v):
     return float(v * Rh**3 * r.V_coal), float(r.V_coal)
 
 
+def solve_coalesced(centres, radii, theta, volume):
+    """One coalesced triplet by Surface Evolver with the table's settings (a retry with
+    more ring points after a mesh failure): the cache entry's solver part (status,
+    reason, refinement, CPU time, attempts, settings; forces, pair forces, pressure and
+    errors when converged)."""
+    from capbridge.solvers.evolver import Settings, minimise_bridge
+    from capbridge.solvers.triplet import pair_forces
+
+    attempts = []
+    for ring in RETRY_RINGS:
+        res = minimise_bridge(centres, list(radii), theta, volume, topology="coalesced",
+                              settings=Settings(n_ring=ring, **EVOLVER_SETTINGS))
+        attempts.append({"n_ring": ring, "status": res.status.name.lower(),
+                         "reason": res.reason, "cpu_time": res.cpu_time})
+        if res.converged or not any(k in res.reason for k in
+                                    ("degenerate", "fold", "driver error")):
+            break
+    entry = {"status": res.status.name.lower(), "reason": res.reason,
+             "refinement": int(res.refinement),
+             "cpu_time": float(sum(a["cpu_time"] for a in attempts)),
+             "attempts": attempts, "settings": EVOLVER_SETTINGS}
+    if res.converged and res.forces is not None:
+        F = np.asarray(res.forces, float)
+        f, resid = pair_forces(centres, F)
+        entry.update({"forces": F.tolist(),
+                      "force_error": np.asarray(res.force_error, float).tolist(),
+                      "force_error_rel": float(res.error_estimate.get("force_rel", np.nan)),
+                      "pair_forces": [f[(0, 1)], f[(0, 2)], f[(1, 2)]],
+                      "pair_residual": resid,
+                      "pressure": float(np.asarray(res.pressure).ravel()[0]),
+                      "energy_extrapolated": float(res.energy_extrapolated)})
+    return entry
+
+
 def run_evolver(cases=UNEQUAL_CASES, cache=CACHE):
     """Solve the missing cases with Surface Evolver, one at a time; update the cache."""
     from capbridge.tables.atomic import atomic_target
-    from capbridge.solvers.evolver import Settings, minimise_bridge
-    from capbridge.solvers.triplet import pair_forces
 
     done = json.loads(cache.read_text()) if cache.exists() else {}
     for n, case in enumerate(cases):
@@ -115,32 +147,11 @@ def run_evolver(cases=UNEQUAL_CASES, cache=CACHE):
         radii, gaps, theta, v = case
         centres = triangle_centres(radii, gaps)
         volume, vcoal_h = _target_volume(radii, gaps, theta, v)
-        attempts = []
-        for ring in RETRY_RINGS:
-            res = minimise_bridge(centres, list(radii), theta, volume, topology="coalesced",
-                                  settings=Settings(n_ring=ring, **EVOLVER_SETTINGS))
-            attempts.append({"n_ring": ring, "status": res.status.name.lower(),
-                             "reason": res.reason, "cpu_time": res.cpu_time})
-            if res.converged or not any(k in res.reason for k in
-                                        ("degenerate", "fold", "driver error")):
-                break
         entry = {"radii": list(radii), "gaps": list(gaps), "theta": theta, "v_target": v,
                  "centres": centres.tolist(), "volume": volume,
                  "harmonic_mean_radius": 3.0 / float(np.sum(1.0 / np.asarray(radii))),
-                 "V_coal_harmonic": vcoal_h, "status": res.status.name.lower(),
-                 "reason": res.reason, "refinement": int(res.refinement),
-                 "cpu_time": float(sum(a["cpu_time"] for a in attempts)),
-                 "attempts": attempts, "settings": EVOLVER_SETTINGS}
-        if res.converged and res.forces is not None:
-            F = np.asarray(res.forces, float)
-            f, resid = pair_forces(centres, F)
-            entry.update({"forces": F.tolist(),
-                          "force_error": np.asarray(res.force_error, float).tolist(),
-                          "force_error_rel": float(res.error_estimate.get("force_rel", np.nan)),
-                          "pair_forces": [f[(0, 1)], f[(0, 2)], f[(1, 2)]],
-                          "pair_residual": resid,
-                          "pressure": float(np.asarray(res.pressure).ravel()[0]),
-                          "energy_extrapolated": float(res.energy_extrapolated)})
+                 "V_coal_harmonic": vcoal_h,
+                 **solve_coalesced(centres, radii, theta, volume)}
         done[key] = entry
         with atomic_target(cache) as tmp:
             Path(tmp).write_text(json.dumps(done, indent=1, sort_keys=True) + "\n")
