@@ -565,14 +565,8 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         Derjaguin radius, all three lookups must be covered)."""
         self._check_fitted()
         if radii is not None:
-            R = np.asarray(radii, float)
-            equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
-            ok = True
-            for lk, _ in {id(a): (a, b) for a, b in
-                          unequal_scales(R, equal, unequal)}.values():
-                ok = ok & self.covers(*(np.asarray(d, float) / lk for d in (d12, d13, d23)),
-                                      theta)
-            return ok
+            return self._scaled(lambda g: self.covers(*g, theta), (d12, d13, d23), radii,
+                                unequal, np.logical_and)
         lo, hi = self.gaps_[0] * (1 - _TOL) - _TOL, self.gaps_[-1] * (1 + _TOL)
         ok = np.ones(np.broadcast_shapes(*(np.shape(x) for x in (d12, d13, d23, theta))),
                      bool)
@@ -592,14 +586,21 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         gaps scaled as in :meth:`covers`."""
         self._check_fitted()
         if radii is not None:
-            R = np.asarray(radii, float)
-            equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
-            out = False
-            for lk, _ in {id(a): (a, b) for a, b in
-                          unequal_scales(R, equal, unequal)}.values():
-                out = out | self._beyond([np.asarray(d, float) / lk for d in (d12, d13, d23)])
-            return out
+            return self._scaled(self._beyond, (d12, d13, d23), radii, unequal,
+                                np.logical_or)
         return self._beyond((d12, d13, d23))
+
+    @staticmethod
+    def _scaled(test, gaps, radii, unequal, combine):
+        """``test`` (of three gap arrays) on the gaps scaled as :meth:`predict_vectors`
+        scales them for the ``unequal`` scheme, its lookups joined by ``combine``."""
+        R = np.asarray(radii, float)
+        equal = np.all(np.abs(R - R[..., :1]) <= 1e-12 * R[..., :1], axis=-1)
+        out = None
+        for lk, _ in {id(a): (a, b) for a, b in unequal_scales(R, equal, unequal)}.values():
+            r = test([np.asarray(d, float) / lk for d in gaps])
+            out = r if out is None else combine(out, r)
+        return out
 
     def _beyond(self, gaps):
         """Where ``open_side="linear"`` continues the table (:func:`beyond_open_side`)."""
