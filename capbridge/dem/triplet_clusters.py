@@ -272,10 +272,11 @@ def triangle_centres(L01, L02, L12):
 
 def load_surrogate(table=None, coalescence_table=None):
     """The triplet surrogate the engine uses: ``table`` (default the shipped
-    ``data/triplet_table_packings.nc``, :func:`~capbridge.surrogate.triplet.engine_table`) fitted with ``out_of_range="clip"`` (a volume ratio
-    outside the table is a status, not an exception), ``open_side="linear"`` (an open
-    side beyond the table up to 1.0 is answered by the table's continuation, status
-    approximate: :mod:`~capbridge.surrogate.triplet_open_side`) and with the dense coalescence
+    ``data/triplet_table_packings.nc``, :func:`~capbridge.surrogate.triplet.
+    engine_table`) fitted with ``out_of_range="clip"`` (a volume ratio outside the
+    table is a status, not an exception), ``open_side="linear"`` (an open side beyond
+    the table up to 1.0 is answered by the table's continuation, status approximate:
+    :mod:`~capbridge.surrogate.triplet_open_side`) and with the dense coalescence
     volumes ``coalescence_table`` (default ``triplet_coalescence.nc`` beside the table,
     if it exists and covers the table's gaps and angles), with ``method="auto"``."""
     from pathlib import Path
