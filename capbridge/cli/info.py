@@ -119,7 +119,8 @@ def print_triplet_summary(s, path):
     if ev["cpu_time_median"] is not None:
         print(f"  per point: median {ev['cpu_time_median']:.1f} CPU s; estimated force "
               f"error median {ev['force_error_rel_median']:.2%}, max "
-              f"{ev['force_error_rel_max']:.2%}")
+              f"{ev['force_error_rel_max']:.2%} of the point's largest force, "
+              f"{ev['force_error_max']:.3g} F* absolute")
     if s.get("max_bridge_gap") is not None:
         print(f"  computed domain: the two smaller gaps up to {s['max_bridge_gap']:g} (the "
               "rest of the cube: not computed, outside the table)")

@@ -80,16 +80,20 @@ def describe_evolver_points(ds: xr.Dataset) -> dict:
     """Cost and estimated error of the Surface Evolver points of a table (the triplet
     table): ``settings`` (the ``evolver_settings`` attribute), and over the points with
     a result (CONVERGED or ABOVE_TOLERANCE) ``cpu_time_median`` [CPU s],
-    ``force_error_rel_median`` and ``force_error_rel_max`` (None without such points)."""
+    ``force_error_rel_median``, ``force_error_rel_max`` and ``force_error_max`` (the
+    largest absolute estimate, F*: relative estimates explode where a body barely
+    pulls) (None without such points)."""
     st = np.asarray(ds["status"].values)
     ok = status_in(st, (Status.CONVERGED, Status.ABOVE_TOLERANCE))
     out = {"settings": ds.attrs.get("evolver_settings"), "cpu_time_median": None,
-           "force_error_rel_median": None, "force_error_rel_max": None}
+           "force_error_rel_median": None, "force_error_rel_max": None,
+           "force_error_max": None}
     if ok.any():
         err = np.asarray(ds["force_error_rel"].values)[ok]
         out.update(cpu_time_median=float(np.median(np.asarray(ds["cpu_time"].values)[ok])),
                    force_error_rel_median=float(np.nanmedian(err)),
-                   force_error_rel_max=float(np.nanmax(err)))
+                   force_error_rel_max=float(np.nanmax(err)),
+                   force_error_max=float(np.nanmax(np.asarray(ds["force_error"].values)[ok])))
     return out
 
 
