@@ -34,6 +34,10 @@ def test_refused_by_default_and_beyond_the_limit(surrogates):
     assert not linear.covers(0.0, 0.3, 0.7, 30.0)      # a bridge gap beyond the table
     with pytest.raises(CapbridgeInputError, match="open_side"):
         TripletSurrogate(open_side="clamp")
+    # a volume outside the table is named as asked, not as looked up at the edge
+    with pytest.raises(CapbridgeInputError, match=r"V\*=20.0 gives v = .* at d12=0, d13=0, "
+                                                  r"d23=0.8, theta=30"):
+        linear.predict(0.0, 0.0, 0.8, 20.0, 30.0)
 
 
 def test_continuation_is_the_table_at_its_edge_and_linear_beyond(surrogates):

@@ -753,6 +753,9 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
         vc = ce["volume_coalescence"] + w * (ce["volume_coalescence"] -
                                              cp["volume_coalescence"])
         v = V[far] / vc
+        # a volume outside the table is named with the asked gaps, V* and V*_coal
+        self._raise_out_of_range({"_v_asked": v, "volume_coalescence": vc},
+                                 [x[far] for x in g], V[far], tf)
         e = self._lookup(edge, v * ce["volume_coalescence"], tf)
         p = self._lookup(prev, v * cp["volume_coalescence"], tf)
         out = {k: np.empty(V.size, x.dtype) for k, x in e.items()}
