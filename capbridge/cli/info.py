@@ -129,12 +129,13 @@ def print_triplet_summary(s, path):
     if ie and "relative" in ie:
         print(f"  force_error of a lookup: its cell's Evolver estimate + {ie['relative']:.2%} "
               f"of its largest pair force + {ie['absolute']:.2g} F* (held-out: the largest "
-              f"error relative to the point's largest pair force where it is >= 0.1, and "
+              f"error relative to the point's largest pair force where it is >= "
+              f"{ie['small_force']:g}, and "
               f"the largest absolute error over the {ie['n_small']} points that pull less)")
     o = s.get("open_side")
     if o and s.get("max_bridge_gap") is not None:
-        print(f"  open side beyond the table ({o['mode']!r}; 'linear': continued to 1, status "
-              f"approximate): pair forces against {o['n_triplets']} Surface Evolver "
+        print(f"  open side beyond the table ({o['mode']!r}; 'linear': continued to "
+              f"{o['limit']:g}, status approximate): pair forces against {o['n_triplets']} Surface Evolver "
               f"triplets, median {o['median']:.1%}, max {o['max']:.1%} of the largest "
               f"({o['source']})")
     u = s.get("unequal_radii")

@@ -376,7 +376,7 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
             e = holdout_errors(self)
             self.interpolation_error_ = {k: e[k] for k in (
                 "median_rel_error", "max_rel_error", "max_rel_to_largest", "relative",
-                "absolute", "n_small", "n")}
+                "absolute", "n_small", "small_force", "n")}
         self._fit_gravity(ds)
         return self
 
@@ -529,7 +529,8 @@ class TripletSurrogate(TripletGravityResponse, SurrogateBase):
                 "holdout_error": self.interpolation_error_,
                 "max_bridge_gap": self.max_bridge_gap_,
                 "unequal_radii": dict(UNEQUAL_RADII_ERROR),
-                "open_side": {"mode": self.open_side, **OPEN_SIDE_ERROR},
+                "open_side": {"mode": self.open_side, "limit": OPEN_SIDE_LINEAR_MAX,
+                              **OPEN_SIDE_ERROR},
                 "gravity": self.gravity_summary()}
 
     def spline_at(self, d12, d13, d23, theta, v):

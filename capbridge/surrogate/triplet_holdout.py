@@ -114,7 +114,8 @@ def holdout_errors(surrogate, by="volume", permute=False):
             "max_rel_to_largest": float(np.max(e_max[u])) if sel.size else np.nan,
             "relative": float(np.max(a_err[big] / f_sur_max[big])) if big.any() else 0.0,
             "absolute": float(np.max(a_err[u & small])) if np.any(u & small) else 0.0,
-            "n_small": int(np.sum(u & small)), "n": int(u.sum()), "by": by}
+            "n_small": int(np.sum(u & small)), "small_force": SMALL_FORCE,
+            "n": int(u.sum()), "by": by}
 
 
 def gravity_holdout_errors(surrogate, table=None):
