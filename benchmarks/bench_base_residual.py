@@ -601,11 +601,8 @@ def main(argv=None):
     if a.collect:
         collect(a.budget, a.level3)
         return 0
-    text = section(a)
-    print(text)
-    if a.write:
-        from results_file import write_section
-        write_section(SECTION, text)
+    from results_file import report
+    report(SECTION, section(a), a.write)
     return 0
 
 

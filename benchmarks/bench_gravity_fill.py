@@ -23,7 +23,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
-from results_file import write_section  # noqa: E402
+from results_file import report  # noqa: E402
 
 SECTION = "### Gravity response: filled nodes"
 TABLES = ("triplet_table.nc", "triplet_table_packings.nc")
@@ -91,10 +91,7 @@ def main(argv=None):
                      f"{np.percentile(share, 90):.3f} / {share.max():.3f} | "
                      f"{np.median(rel):.2%} / {np.percentile(rel, 90):.2%} / {rel.max():.2%} | "
                      f"{np.median(eq):.2%} / {np.percentile(eq, 90):.2%} / {eq.max():.2%} |")
-    text = "\n".join(lines) + "\n"
-    print(text)
-    if a.write:
-        write_section(SECTION, text)
+    report(SECTION, "\n".join(lines) + "\n", a.write)
     return 0
 
 

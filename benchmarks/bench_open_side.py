@@ -38,7 +38,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 from bench_triplet import solve_coalesced, triangle_centres  # noqa: E402
-from results_file import write_section  # noqa: E402
+from results_file import report  # noqa: E402
 
 CACHE = HERE / "evolver_out" / "open_side.json"
 SECTION = "### Coalesced triplets beyond the table's open side"
@@ -217,10 +217,7 @@ def main(argv=None):
         run_evolver()
         return 0
     rows, errs = compare(a.table)
-    text = section(rows, errs, a.table)
-    print(text)
-    if a.write:
-        write_section(SECTION, text)
+    report(SECTION, section(rows, errs, a.table), a.write)
     return 0
 
 

@@ -27,3 +27,11 @@ def write_section(heading, text, path=RESULTS):
         tail = "\n".join(lines[end:])
         new = "\n".join(lines[:start]) + "\n" + text + ("\n" + tail if tail else "")
     path.write_text(new, encoding="utf-8")
+
+
+def report(heading, text, write):
+    """Print a benchmark's section ``text``; with ``write``, also put it in RESULTS.md
+    (:func:`write_section`)."""
+    print(text)
+    if write:
+        write_section(heading, text)
