@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -46,6 +45,7 @@ sys.path.insert(0, str(HERE))
 
 from capbridge.physics import wetted_region as wr  # noqa: E402
 from bench_wetted_region import _q, bridged_pairs, level3_pairs  # noqa: E402
+from bench_wetted_region import key as case_key  # noqa: E402
 
 CACHE = HERE / "evolver_out" / "base_heldout.json"
 SECTION = "### The window model as a base: held-out bodies and the triplet table's residual"
@@ -107,15 +107,14 @@ def case_list():
 
 
 def key(c, level=MAX_REFINE):
-    if c["kind"] == "triplet":
-        return f"triplet {c['gaps']} theta={c['theta']:g} v={c['v']:g} L{level}"
-    return f"cluster {c['name']} theta={c['theta']:g} V={c['V']:g} L{level}"
+    """The cache key of a held-out body (bench_wetted_region's, at ``level``)."""
+    return case_key(c, level)
 
 
 def collect(budget_s=None, level3=()):
     """Solve the missing held-out bodies (one Evolver at a time), caching each; the
     bodies whose level-2 key is in ``level3`` also at level 3 (a check)."""
-    from bench_wetted_region import solve_case
+    from bench_wetted_region import solve_into
     cache = json.loads(CACHE.read_text()) if CACHE.exists() else {}
     spent = sum(c.get("cpu_s", 0.0) for c in cache.values())
     todo = [(c, MAX_REFINE) for c in case_list()]
@@ -127,16 +126,7 @@ def collect(budget_s=None, level3=()):
         if budget_s is not None and spent > budget_s:
             print(f"budget {budget_s} s spent; stop", flush=True)
             break
-        t = time.time()
-        res = solve_case(case, level)
-        spent += res["cpu_s"]
-        cache[k] = dict(case, **res)
-        print(f"{k}: {res['status']} P*={res['pressure']} cpu {res['cpu_s']:.1f} s "
-              f"(wall {time.time() - t:.1f} s)", flush=True)
-        CACHE.parent.mkdir(parents=True, exist_ok=True)
-        tmp = CACHE.with_suffix(".tmp")
-        tmp.write_text(json.dumps(cache, indent=0))
-        os.replace(tmp, CACHE)
+        spent += solve_into(cache, CACHE, case, level)["cpu_s"]
     return cache
 
 

@@ -166,6 +166,23 @@ def key(case, max_refine):
     return f"cluster {case['name']} theta={case['theta']:g} V={case['V']:g} L{max_refine}"
 
 
+def solve_into(cache, path, case, max_refine):
+    """Solve ``case`` (:func:`solve_case`) into ``cache`` under :func:`key` and write the
+    cache to ``path`` (atomically); returns the result."""
+    from capbridge.tables.atomic import atomic_target
+
+    k = key(case, max_refine)
+    t = time.time()
+    res = solve_case(case, max_refine)
+    cache[k] = dict(case, **res)
+    print(f"{k}: {res['status']} P*={res['pressure']} cpu {res['cpu_s']:.1f} s "
+          f"(wall {time.time() - t:.1f} s)", flush=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_target(path) as tmp:
+        Path(tmp).write_text(json.dumps(cache, indent=0))
+    return res
+
+
 def collect(max_refine, only=None):
     cache = json.loads(CACHE.read_text()) if CACHE.exists() else {}
     for case in case_list():
@@ -174,15 +191,7 @@ def collect(max_refine, only=None):
             continue
         if k in cache:
             continue
-        t = time.time()
-        res = solve_case(case, max_refine)
-        cache[k] = dict(case, **res)
-        print(f"{k}: {res['status']} P*={res['pressure']} cpu {res['cpu_s']:.1f} s "
-              f"(wall {time.time() - t:.1f} s)", flush=True)
-        CACHE.parent.mkdir(parents=True, exist_ok=True)
-        tmp = CACHE.with_suffix(".tmp")
-        tmp.write_text(json.dumps(cache, indent=0))
-        os.replace(tmp, CACHE)
+        solve_into(cache, CACHE, case, max_refine)
     return {k: v for k, v in cache.items() if k.endswith(f"L{max_refine}")
             and (not only or only in k)}
 
